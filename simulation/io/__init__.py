@@ -1,0 +1,1 @@
+"""Reading and writing recorded robot data: ROS bags, dataset tables, and other robots' formats."""
