@@ -1,0 +1,36 @@
+"""Joint-position estimators: learned calibrators (scikit-learn contract) and the UKF baseline.
+
+The calibrators map one row of robot state X to corrected joint positions y and work on any
+robot's (X, y) arrays. They follow scikit-learn's estimator contract, save to a pickle-free
+format (`save_calibrator` / `load_calibrator`) and export to numpy-only single-sample
+predictors for a servo loop (`to_realtime`).
+"""
+
+from estimators.dnn import LARGE_HIDDEN_LAYER_SIZES, LARGE_REGULARIZATION, DNNCalibrator
+from estimators.fixed_offset import FixedOffsetCalibrator
+from estimators.gpr import GPRCalibrator
+from estimators.linear import LinearCalibrator
+from estimators.metrics import pooled_rmse, rmse_per_joint
+from estimators.persistence import FORMAT_VERSION, load_calibrator, save_calibrator
+from estimators.polynomial import PolynomialCalibrator
+from estimators.two_phase import TwoPhaseCalibrator
+from estimators.window_linear import WindowLinearCalibrator
+from estimators.window_lstm import WindowLSTMCalibrator
+
+__all__ = [
+    "DNNCalibrator",
+    "FORMAT_VERSION",
+    "FixedOffsetCalibrator",
+    "GPRCalibrator",
+    "LARGE_HIDDEN_LAYER_SIZES",
+    "LARGE_REGULARIZATION",
+    "LinearCalibrator",
+    "PolynomialCalibrator",
+    "TwoPhaseCalibrator",
+    "WindowLSTMCalibrator",
+    "WindowLinearCalibrator",
+    "load_calibrator",
+    "pooled_rmse",
+    "rmse_per_joint",
+    "save_calibrator",
+]

@@ -34,7 +34,8 @@ PRISMATIC_JOINTS = (False, False, True, False, False, False)
 # the motion history.
 WRIST_JOINTS = (3, 4, 5)
 
-_DEFAULT_LOCATION = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "dvrk_hwang2020"
+_REPOSITORY = Path(__file__).resolve().parents[2]
+_DEFAULT_LOCATION = _REPOSITORY.parent / "shared" / "data" / "dvrk_hwang2020"
 _FILES = ("q_des.npy", "q_act.npy", "t_stamp.npy")
 
 
@@ -146,10 +147,12 @@ def load_dvrk(folder_or_root: str | os.PathLike | None = None, split: str = "ran
 
     drop = max(int(history), 1 if velocity else 0)
     if q_des.shape[0] <= drop:
-        raise DvrkDataError(f"{folder} holds {q_des.shape[0]} samples, too few for history={history}.")
+        raise DvrkDataError(
+            f"{folder} holds {q_des.shape[0]} samples, too few for history={history}.")
     blocks = [q_des[drop - lag: q_des.shape[0] - lag] for lag in range(int(history) + 1)]
     names = [f"q_des.{joint}" for joint in JOINT_NAMES]
-    names += [f"q_des.{joint}[t-{lag}]" for lag in range(1, int(history) + 1) for joint in JOINT_NAMES]
+    names += [f"q_des.{joint}[t-{lag}]"
+              for lag in range(1, int(history) + 1) for joint in JOINT_NAMES]
     if velocity:
         rates = np.diff(q_des, axis=0) / np.diff(t)[:, None]
         blocks.append(rates[drop - 1:])

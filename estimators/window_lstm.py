@@ -1,0 +1,167 @@
+"""LSTM calibrator over a temporal window of robot states (Hwang et al., RA-L 2020)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from estimators import lstm
+from estimators.base import CalibratorBase
+from estimators.randomness import make_generator
+from estimators.realtime import LSTMPredictor
+from estimators.standardization import Standardizer
+from estimators.validation import (
+    check_non_negative_float,
+    check_open_interval,
+    check_positive_int,
+)
+from estimators.windows import stack_windows
+
+
+class WindowLSTMCalibrator(CalibratorBase):
+    """One-layer LSTM run over the last `window` rows of X; its last output is the correction.
+
+    Hwang et al. (2020) fed a dVRK's recent commanded joint positions (the current one and 4
+    before it) to an LSTM (about 100 units) to predict the wrist joints' actual positions.
+    Each window is processed from zero state, independently of the others.
+
+    The rows of X must be consecutive samples of one recording in time order: row t is
+    predicted from rows t - window + 1 ... t, and the first window - 1 rows are padded by
+    repeating row 0 (see `estimators.windows`). Hence a prediction depends on the rows before
+    it, and predicting a subset or a shuffled X changes it, by design. `to_realtime` returns a
+    predictor that keeps the last `window` samples in a ring buffer (call its ``reset()`` at the
+    start of a new recording). Inputs and targets are standardized inside; training runs in
+    float64 on the CPU and is deterministic for a given `random_state` and thread count.
+
+    Parameters
+    ----------
+    raw_columns : None, int or sequence of int, default=None
+        Columns of X holding the uncorrected value of each column of y; the raw value of the
+        current row is used (error mode).
+    window : int, default=5
+        Number of rows in the window, the current one included.
+    hidden_size : int, default=100
+        LSTM units.
+    weight_l2 : float, default=0.0
+        L2 penalty on the input, recurrent and output weights.
+    learning_rate : float, default=1e-3
+    beta_1, beta_2 : float, default=0.9, 0.999
+        Adam's decay rates.
+    batch_size : int, default=128
+    max_epochs : int, default=30
+        About Hwang et al.'s 1000 steps of 100 samples on their recordings of a few thousand
+        samples.
+    early_stopping : bool, default=False
+        Hold out the last `validation_fraction` of the rows and keep the best epoch, stopping
+        after `n_iter_no_change` epochs without an improvement of `tol`.
+    validation_fraction : float, default=0.1
+    n_iter_no_change : int, default=10
+    tol : float, default=1e-4
+    random_state : None, int, RandomState or Generator, default=None
+    n_threads : int or None, default=None
+        Torch threads during `fit` (None: torch's current setting); restored afterwards.
+
+    Attributes
+    ----------
+    weights_ : estimators.lstm.LSTMWeights
+        Learned parameters (standardized units).
+    x_mean_, x_scale_, target_mean_, target_scale_ : ndarray
+        Standardization of inputs and of the learned correction;
+        an input column that was constant in training has scale +inf and is ignored.
+    loss_curve_, validation_loss_curve_ : ndarray
+    n_epochs_, best_epoch_ : int
+    """
+
+    def __init__(self, *, raw_columns=None, window=5, hidden_size=100, weight_l2=0.0,
+                 learning_rate=1e-3, beta_1=0.9, beta_2=0.999, batch_size=128, max_epochs=30,
+                 early_stopping=False, validation_fraction=0.1, n_iter_no_change=10, tol=1e-4,
+                 random_state=None, n_threads=None):
+        self.raw_columns = raw_columns
+        self.window = window
+        self.hidden_size = hidden_size
+        self.weight_l2 = weight_l2
+        self.learning_rate = learning_rate
+        self.beta_1 = beta_1
+        self.beta_2 = beta_2
+        self.batch_size = batch_size
+        self.max_epochs = max_epochs
+        self.early_stopping = early_stopping
+        self.validation_fraction = validation_fraction
+        self.n_iter_no_change = n_iter_no_change
+        self.tol = tol
+        self.random_state = random_state
+        self.n_threads = n_threads
+
+    def _check_params(self):
+        for name in ("window", "hidden_size", "batch_size", "max_epochs", "n_iter_no_change"):
+            check_positive_int(getattr(self, name), name)
+        check_non_negative_float(self.weight_l2, "weight_l2")
+        check_non_negative_float(self.tol, "tol")
+        check_open_interval(self.learning_rate, "learning_rate", 0.0, np.inf)
+        check_open_interval(self.beta_1, "beta_1", 0.0, 1.0)
+        check_open_interval(self.beta_2, "beta_2", 0.0, 1.0)
+        check_open_interval(self.validation_fraction, "validation_fraction", 0.0, 1.0)
+        if self.n_threads is not None:
+            check_positive_int(self.n_threads, "n_threads")
+
+    def _fit_correction(self, X, correction):
+        # torch is needed for training only: prediction and real-time export stay numpy-only.
+        from estimators.lstm_training import LSTMTrainingConfig, train_lstm
+        from estimators.training_loop import EarlyStopping
+
+        x_scaler, target_scaler = Standardizer.fit_inputs(X), Standardizer.fit_targets(correction)
+        rng = make_generator(self.random_state)
+        initial = lstm.LSTMWeights.initial(X.shape[1], int(self.hidden_size),
+                                           correction.shape[1], rng)
+        stopping = (EarlyStopping(float(self.validation_fraction), int(self.n_iter_no_change),
+                                  float(self.tol)) if self.early_stopping else None)
+        config = LSTMTrainingConfig(
+            learning_rate=float(self.learning_rate), beta_1=float(self.beta_1),
+            beta_2=float(self.beta_2), weight_l2=float(self.weight_l2),
+            batch_size=int(self.batch_size), max_epochs=int(self.max_epochs),
+            early_stopping=stopping)
+        result = train_lstm(stack_windows(x_scaler.transform(X), int(self.window)),
+                            target_scaler.transform(correction), initial, config, rng,
+                            self.n_threads)
+        self.weights_ = result.state
+        self.x_mean_, self.x_scale_ = x_scaler.mean, x_scaler.scale
+        self.target_mean_, self.target_scale_ = target_scaler.mean, target_scaler.scale
+        self.loss_curve_ = result.loss_curve
+        self.validation_loss_curve_ = result.validation_curve
+        self.n_epochs_ = len(result.loss_curve)
+        self.best_epoch_ = result.best_epoch
+
+    def _predict_correction(self, X):
+        standardized = Standardizer(self.x_mean_, self.x_scale_).transform(X)
+        output = lstm.forward(stack_windows(standardized, int(self.window)), self.weights_)
+        return output * self.target_scale_ + self.target_mean_
+
+    def _build_realtime(self):
+        w = self.weights_
+        return LSTMPredictor(
+            input_weight=w.input_weight / self.x_scale_[:, None],
+            recurrent_weight=w.recurrent_weight,
+            gate_bias=w.gate_bias - (self.x_mean_ / self.x_scale_) @ w.input_weight,
+            out_weight=w.out_weight * self.target_scale_,
+            out_bias=w.out_bias * self.target_scale_ + self.target_mean_,
+            window=int(self.window),
+            raw_index=self.raw_columns_,
+        )
+
+    def _fitted_arrays(self):
+        arrays = {f"lstm.{name}": value for name, value in self.weights_.arrays().items()}
+        arrays.update(x_mean=self.x_mean_, x_scale=self.x_scale_,
+                      target_mean=self.target_mean_, target_scale=self.target_scale_,
+                      loss_curve=self.loss_curve_,
+                      validation_loss_curve=self.validation_loss_curve_,
+                      best_epoch=np.asarray(self.best_epoch_))
+        return arrays
+
+    def _restore_fitted_arrays(self, arrays):
+        self.weights_ = lstm.LSTMWeights(
+            **{name[5:]: value for name, value in arrays.items() if name.startswith("lstm.")})
+        self.x_mean_, self.x_scale_ = arrays["x_mean"], arrays["x_scale"]
+        self.target_mean_, self.target_scale_ = arrays["target_mean"], arrays["target_scale"]
+        self.loss_curve_ = arrays["loss_curve"]
+        self.validation_loss_curve_ = arrays["validation_loss_curve"]
+        self.n_epochs_ = len(self.loss_curve_)
+        self.best_epoch_ = int(arrays["best_epoch"])

@@ -1,0 +1,55 @@
+"""scikit-learn's estimator contract (`check_estimator`) for every calibrator.
+
+Each calibrator is default-constructed, except that the networks train briefly on one thread
+(`max_epochs` low, small hidden sizes for the LSTM and the forest) so that the ~60 checks per
+estimator stay fast. The window calibrators are expected to fail exactly the two checks that
+assume rows are independent samples; every other check must pass.
+"""
+
+from __future__ import annotations
+
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from estimators import (
+    DNNCalibrator,
+    FixedOffsetCalibrator,
+    GPRCalibrator,
+    LinearCalibrator,
+    PolynomialCalibrator,
+    TwoPhaseCalibrator,
+    WindowLinearCalibrator,
+    WindowLSTMCalibrator,
+)
+
+# A window calibrator predicts row t from rows t - window + 1 ... t of the given X, so
+# predicting a subset or a permutation of X changes the predictions: the two checks below
+# assume independent rows and fail by design. They are listed here, with the reason, and not
+# hidden with an estimator tag.
+ROW_ORDER_DEPENDENT = {
+    "check_methods_subset_invariance":
+        "a window calibrator's prediction for a row depends on the rows before it",
+    "check_methods_sample_order_invariance":
+        "a window calibrator's prediction for a row depends on the rows before it",
+}
+
+CALIBRATORS = [
+    FixedOffsetCalibrator(),
+    LinearCalibrator(),
+    PolynomialCalibrator(),
+    DNNCalibrator(max_epochs=100, n_threads=1),
+    GPRCalibrator(n_threads=1),
+    TwoPhaseCalibrator(dnn=DNNCalibrator(max_epochs=100, n_threads=1), n_estimators=10),
+    WindowLinearCalibrator(),
+    WindowLSTMCalibrator(hidden_size=8, learning_rate=1e-2, max_epochs=30, n_threads=1),
+]
+
+
+def _expected_failures(estimator):
+    if isinstance(estimator, (WindowLinearCalibrator, WindowLSTMCalibrator)):
+        return ROW_ORDER_DEPENDENT
+    return {}
+
+
+@parametrize_with_checks(CALIBRATORS, expected_failed_checks=_expected_failures)
+def test_sklearn_contract(estimator, check):
+    check(estimator)
