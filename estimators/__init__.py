@@ -27,6 +27,9 @@ __all__ = [
     "LinearCalibrator",
     "PolynomialCalibrator",
     "TwoPhaseCalibrator",
+    "JointEstimates",
+    "ProcessNoise",
+    "UKFJointEstimator",
     "WindowLSTMCalibrator",
     "WindowLinearCalibrator",
     "load_calibrator",
@@ -34,3 +37,15 @@ __all__ = [
     "rmse_per_joint",
     "save_calibrator",
 ]
+
+_UKF_NAMES = {"UKFJointEstimator": "estimators.ukf", "ProcessNoise": "estimators.ukf_noise",
+              "JointEstimates": "estimators.ukf_run"}
+
+
+def __getattr__(name):
+    # The UKF needs the simulator's model layer (numba, casadi): imported on first use only.
+    if name in _UKF_NAMES:
+        import importlib
+
+        return getattr(importlib.import_module(_UKF_NAMES[name]), name)
+    raise AttributeError(f"module 'estimators' has no attribute {name!r}")

@@ -1,0 +1,83 @@
+"""The two equation errors of the motor-cable-link model, per log sample, as casadi functions.
+
+With the ground-truth joints ``q`` (and their derivatives) known, the links say which tension the
+cables carry,
+
+    T = M(q) q'' + load_scale * g(q) + coulomb * tanh(q' / v_s) + viscous * q',
+
+and two measurements check it:
+
+* the joints: the motors, through the coupling ``A`` and the offsets ``o``, put the cable ends at
+  ``p = A u + o``; a cable carrying the elastic tension ``T - damping * s'`` is stretched by
+  ``s = x0 asinh((T - damping s') / (k x0))`` (:func:`simulation.cable_model.stretch_from_tension`),
+  so the joints sit at ``p - s``; residual ``q - (p - s)`` (rad, rad, m);
+* the motor torques: the motors feel the cables through ``A^T``,
+  ``tau_u = J_u u'' + b_u u' + A^T T``; residual in N m, N m, N.
+
+The joint error fixes the cable law and the coupling, the torque error fixes the loads in absolute
+units (the gravity scale and the friction); together they separate the stiffness from the load.
+Each residual is divided by its channel's noise level and multiplied by a weight (0 drops it).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from ..constants import RavenConstants
+from .layout import (
+    COULOMB,
+    COUPLING_DELTA,
+    DAMPING,
+    HARDENING,
+    LOAD_SCALE,
+    OFFSETS,
+    STIFFNESS,
+    VISCOUS,
+    ParameterLayout,
+)
+
+# Rows of the per-sample data matrix (each block is 3 wide).
+D_Q, D_QD, D_INERTIAL, D_GRAVITY, D_U, D_UD, D_UDD, D_TAU, D_WQ, D_WT = (slice(3 * i, 3 * i + 3) for i in range(10))
+N_DATA = 30
+N_RESIDUALS = 6
+
+
+def symbolic_coupling(c01, c02, c12) -> ca.SX:
+    """:func:`simulation.constants.coupling_matrix` as a casadi expression."""
+    return ca.vertcat(
+        ca.horzcat(1.0, 0.0, 0.0),
+        ca.horzcat(-c01, 1.0, 0.0),
+        ca.horzcat(-c02 + c12 * c01, -c12, 1.0),
+    )
+
+
+def residual_function(layout: ParameterLayout, constants: RavenConstants, velocity_scale: np.ndarray) -> ca.Function:
+    """casadi function ``(xi, d, sigma) -> r``: the 6 weighted, scaled residuals of one sample.
+
+    ``xi`` are the layout's unknowns, ``d`` the sample's data column (rows ``D_*``), ``sigma`` the
+    noise level of each residual channel (3 joint, 3 torque).
+    """
+    xi = ca.SX.sym("xi", len(layout))
+    d = ca.SX.sym("d", N_DATA)
+    sigma = ca.SX.sym("sigma", N_RESIDUALS)
+    slots = layout.symbolic_slots(xi)
+    k, x0, damping = slots[STIFFNESS], slots[HARDENING], slots[DAMPING]
+    coulomb, viscous, load_scale = slots[COULOMB], slots[VISCOUS], slots[LOAD_SCALE]
+    nominal = np.asarray(constants.cable_coupling, dtype=float)
+    delta = slots[COUPLING_DELTA]
+    a = symbolic_coupling(nominal[0] + delta[0], nominal[1] + delta[1], nominal[2] + delta[2])
+    q, qd = d[D_Q], d[D_QD]
+    u, ud, udd = d[D_U], d[D_UD], d[D_UDD]
+    tension = d[D_INERTIAL] + load_scale * d[D_GRAVITY] + coulomb * ca.tanh(qd / ca.DM(velocity_scale)) + viscous * qd
+    cable_end = a @ u + slots[OFFSETS]
+    if layout.rigid:
+        predicted = cable_end
+    else:
+        elastic = tension - damping * (a @ ud - qd)
+        predicted = cable_end - x0 * ca.asinh(elastic / (k * x0))
+    motor_inertia = ca.DM(constants.motor_inertia[:3] * constants.transmission_ratio[:3] ** 2)
+    motor_damping = ca.DM(constants.motor_damping[:3] * constants.transmission_ratio[:3] ** 2)
+    torque = motor_inertia * udd + motor_damping * ud + a.T @ tension
+    residual = ca.vertcat(d[D_WQ] * (q - predicted), d[D_WT] * (d[D_TAU] - torque)) / sigma
+    return ca.Function("cable_residual", [xi, d, sigma], [residual])

@@ -1,0 +1,210 @@
+"""casadi identification of the cable model: recovery, calibrated intervals, identifiability, bad input."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from kinematics import RavenII
+from kinematics.gravity_closed_form import gravity_torques_fast_batch, mass_matrix_fast
+from simulation.cable_model import cable_stretch_curve
+from simulation.constants import coupling_matrix
+from simulation.identification import (
+    MotorLog,
+    NotIdentifiableError,
+    PoorlyIdentifiedWarning,
+    identify,
+)
+from simulation.parameters import RavenParameters
+from simulation.recording import Recording
+from simulation.robot import VirtualRaven
+from simulation.scenarios import powered_on, record_random_test
+from simulation.trajectories import random_sinusoidal
+from simulation.trajectories.random_motion import RandomMotionRanges
+
+MODEL = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction")
+ENTRY = {"shoulder": 0, "elbow": 1, "z_ins": 2, "c01": 0, "c02": 1, "c12": 2}
+# sweeps a few times faster than the paper's test motion, so viscous and dry friction separate
+BRISK = RandomMotionRanges(velocity_low=(float(np.deg2rad(2.0)), float(np.deg2rad(2.0)), 0.005),
+                           velocity_high=(float(np.deg2rad(12.0)), float(np.deg2rad(12.0)), 0.03))
+
+
+def true_value(params: RavenParameters, name: str) -> float:
+    effect, rest = name.split(".", 1)
+    field, entry = rest[:-1].split("[")
+    return float(getattr(params.effect(effect), field)[ENTRY[entry]])
+
+
+@pytest.fixture(scope="module")
+def simulated():
+    """One minute unloaded and one minute with 0.5 kg of brisk random motion, model effects only."""
+    params = RavenParameters().only(*MODEL)
+    robot = VirtualRaven(params, seed=1)
+    robot.home()
+    parts = []
+    for seed, payload in ((3, 0.0), (4, 0.5)):
+        robot.set_payload(payload)
+        motion = random_sinusoidal(60.0, seed, ranges=BRISK)
+        robot.move_to(motion.q[0])
+        parts.append(robot.run(motion))
+    return params, Recording.concatenate(parts)
+
+
+def test_recovers_the_simulated_parameters_within_five_percent(simulated):
+    params, recording = simulated
+    result = identify(recording, effects=MODEL)
+    for estimate in result.estimates:
+        if estimate.name.startswith("offset"):
+            continue
+        assert estimate.value == pytest.approx(true_value(params, estimate.name), rel=0.05), estimate.name
+    # ideal homing: the session offsets vanish (within 0.01 deg, 10 um)
+    assert np.all(np.abs(result.offsets) < np.array([2e-4, 2e-4, 1e-5])), result.offsets
+    assert result.report.converged
+    assert np.all(result.report.joint_rmse < np.array([1e-4, 1e-4, 1e-5]))
+
+
+@pytest.mark.filterwarnings("ignore::simulation.identification.PoorlyIdentifiedWarning")
+def test_fitted_parameter_set_is_the_model_with_every_other_effect_off(simulated):
+    _, recording = simulated
+    result = identify(recording, effects=("cable_stretch", "gravity_stretch", "coupling"))
+    fitted = result.parameters
+    assert fitted.enabled_effects == ("cable_stretch", "gravity_stretch", "coupling")
+    stiffness = [result.estimate(f"cable_stretch.stiffness[{j}]").value for j in ("shoulder", "elbow", "z_ins")]
+    np.testing.assert_allclose(fitted.effect("cable_stretch").stiffness, stiffness)
+    # damping is held at the base value by default
+    assert "cable_stretch.damping[shoulder]" in result.fixed
+    base_damping = RavenParameters().effect("cable_stretch").damping
+    np.testing.assert_allclose(fitted.effect("cable_stretch").damping, base_damping)
+    VirtualRaven(fitted, seed=0)  # the fitted model builds a simulator
+
+
+def model_log(params: RavenParameters, duration: float, rate: float, payload_kg: float) -> MotorLog:
+    """A log computed from the identification's own equations along a smooth joint trajectory.
+
+    The joints follow sums of sinusoids; the links need the tension M q'' + g + friction; the cables
+    stretch by the closed-form law (no damping); the motors sit at ``A^-1 (q + s)`` and need
+    ``J u'' + b u' + A^T T``. Computed at 1 kHz with central differences, then sampled at ``rate``.
+    """
+    c = params.constants
+    t = np.arange(0.0, duration, 1e-3)
+    centre = np.array([np.deg2rad(40.0), np.deg2rad(80.0), 0.38])
+    amplitude = np.array([np.deg2rad(15.0), np.deg2rad(20.0), 0.03])
+    q = centre + amplitude * (0.7 * np.sin(2 * np.pi * np.outer(t, [0.11, 0.07, 0.09]) + [0.0, 1.0, 2.0])
+                              + 0.3 * np.sin(2 * np.pi * np.outer(t, [0.29, 0.23, 0.31])))
+    qd = np.gradient(q, t, axis=0)
+    qdd = np.gradient(qd, t, axis=0)
+    coefficients = RavenII(arm=params.arm, check_limits=False).gravity_coefficients(payload_kg)
+    inertial = np.array([mass_matrix_fast(np.ascontiguousarray(qi), coefficients) @ ai for qi, ai in zip(q, qdd)])
+    coulomb = params.effect("coulomb_friction")
+    tension = (inertial + params.effect("gravity_stretch").load_scale * gravity_torques_fast_batch(q, coefficients)
+               + coulomb.force * np.tanh(qd / coulomb.velocity_scale)
+               + params.effect("viscous_friction").coefficient * qd)
+    law = params.effect("cable_stretch")
+    stretch = np.column_stack([cable_stretch_curve(tension[:, i], law.stiffness[i], law.hardening[i])
+                               for i in range(3)])
+    a = coupling_matrix(*(np.asarray(c.cable_coupling) + params.effect("coupling").delta))
+    u = np.linalg.solve(a, (q + stretch).T).T
+    ud = np.gradient(u, t, axis=0)
+    udd = np.gradient(ud, t, axis=0)
+    ratio = c.transmission_ratio[:3]
+    motor_torque = c.motor_inertia[:3] * ratio ** 2 * udd + c.motor_damping[:3] * ratio ** 2 * ud + tension @ a
+    keep = slice(0, None, int(round(1000.0 / rate)))
+    return MotorLog(time=t[keep], motor_positions=u[keep] * ratio,
+                    motor_torques=motor_torque[keep] * c.gearbox[:3] / ratio,
+                    joints=q[keep], payload_kg=np.full(t[keep].size, payload_kg), arm=params.arm)
+
+
+def join(logs: list[MotorLog]) -> MotorLog:
+    shift = 0.0
+    parts = []
+    for log in logs:
+        parts.append(log.time + shift)
+        shift = parts[-1][-1] + 10.0
+    return MotorLog(time=np.concatenate(parts),
+                    motor_positions=np.vstack([log.motor_positions for log in logs]),
+                    motor_torques=np.vstack([log.motor_torques for log in logs]),
+                    joints=np.vstack([log.joints for log in logs]),
+                    payload_kg=np.concatenate([log.payload_kg for log in logs]))
+
+
+def test_confidence_intervals_contain_the_true_values_at_the_stated_rate():
+    law = RavenParameters().effect("cable_stretch").replace(damping=np.zeros(3))
+    params = RavenParameters().only(*MODEL).with_effect(law)
+    clean = join([model_log(params, 30.0, 30.0, 0.0), model_log(params, 30.0, 30.0, 0.5)])
+    joint_noise = np.array([3e-4, 3e-4, 3e-5])   # rad, rad, m: encoder jitter far above the model's rounding
+    torque_noise = 0.005                         # N m at the gearbox output
+    confidence = 0.9
+    hits = []
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        noisy = MotorLog(time=clean.time, motor_positions=clean.motor_positions,
+                         motor_torques=clean.motor_torques
+                         + torque_noise * rng.standard_normal(clean.motor_torques.shape),
+                         joints=clean.joints + joint_noise * rng.standard_normal(clean.joints.shape),
+                         payload_kg=clean.payload_kg)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PoorlyIdentifiedWarning)
+            result = identify(noisy, effects=MODEL, base=params, confidence=confidence)
+        hits += [e.contains(true_value(params, e.name)) for e in result.estimates if not e.name.startswith("offset")]
+    coverage = float(np.mean(hits))
+    # 5 x 18 intervals at 90%: a binomial count has a standard deviation of 3 points of coverage
+    assert 0.78 <= coverage <= 0.99, coverage
+
+
+def test_no_motion_and_constant_torque_is_reported_not_identifiable():
+    n = 600
+    c = RavenParameters().constants
+    still = MotorLog(time=np.arange(n) / 30.0,
+                     motor_positions=np.tile(np.array([0.5, 1.6, 0.4]) * c.transmission_ratio[:3], (n, 1)),
+                     motor_torques=np.tile([0.02, -0.01, 0.05], (n, 1)),
+                     joints=np.tile([0.5, 1.6, 0.4], (n, 1)))
+    with pytest.raises(NotIdentifiableError, match="never move"):
+        identify(still, effects=MODEL)
+    with pytest.raises(NotIdentifiableError, match="cannot tell these parameters apart|no information"):
+        identify(still, effects=("cable_stretch", "gravity_stretch", "coupling"))
+
+
+def test_a_parameter_the_data_cannot_determine_is_flagged():
+    # nearly linear cables (hardening stretch of 1 rad, 1 m): the shoulder and insertion stretch
+    # too little for the data to say how far away the hardening sets in; stiffness and loads stay pinned
+    linear = RavenParameters().effect("cable_stretch").replace(hardening=np.ones(3))
+    robot = powered_on(RavenParameters().only(*MODEL).with_effect(linear), seed=1)
+    recording = record_random_test(robot, 60.0, seed=3)
+    with pytest.warns(PoorlyIdentifiedWarning, match="hardening"):
+        result = identify(recording, effects=MODEL)
+    flagged = set(result.report.poorly_identified)
+    assert {"cable_stretch.hardening[shoulder]", "cable_stretch.hardening[z_ins]"} <= flagged
+    assert not any(name.startswith("gravity_stretch") for name in result.report.poorly_identified)
+    stiffness = result.estimate("cable_stretch.stiffness[shoulder]").value
+    assert stiffness == pytest.approx(linear.stiffness[0], rel=0.05)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"effects": ("backlash",)}, "cannot identify effects"),
+    ({"fixed": ("cable_stretch.stifness",)}, "unknown parameter"),
+    ({"confidence": 1.5}, "confidence"),
+    ({"covariance": "bootstrap"}, "covariance"),
+])
+def test_bad_options_raise_clear_errors(simulated, kwargs, message):
+    _, recording = simulated
+    with pytest.raises(ValueError, match=message):
+        identify(recording, **kwargs)
+
+
+def test_a_log_without_truth_or_with_nan_is_refused():
+    n = 100
+    log = MotorLog(time=np.arange(n) / 30.0, motor_positions=np.ones((n, 3)), motor_torques=np.zeros((n, 3)))
+    with pytest.raises(ValueError, match="ground-truth"):
+        identify(log)
+    positions = np.ones((n, 3))
+    positions[7, 1] = np.nan
+    with pytest.raises(ValueError, match="NaN at row 7"):
+        identify(MotorLog(time=log.time, motor_positions=positions, motor_torques=np.zeros((n, 3)),
+                          joints=np.ones((n, 3))))
+
+
+def test_motor_log_refuses_time_that_does_not_increase():
+    with pytest.raises(ValueError, match="increase strictly"):
+        MotorLog(time=[0.0, 0.1, 0.1], motor_positions=np.zeros((3, 3)), motor_torques=np.zeros((3, 3)))
