@@ -1,0 +1,155 @@
+"""Training on the error vs end-to-end (the paper's Table II).
+
+On the session of the 6-hour unloaded operation (as in the paper, II-J), the DNN, linear and
+2nd-order polynomial regression are trained either on the error (they output ``truth - raw``,
+added to the raw joints) or end-to-end (they output the joints), on every combination of the
+J2-J3 zig-zags at sparsities 1/6, 1/4, 1/3. Each entry is the RMSE averaged over all training
+sets and the hours of operation, as in the paper's table, whose numbers are printed beside.
+
+Run: ``python studies/train_on_error.py [--quick] [--hours H] [--out DIR] [--jobs N]``
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a script: make the project's packages importable
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import numpy as np  # noqa: E402
+
+from studies import paper_numbers as paper  # noqa: E402
+from studies import plots, reporting  # noqa: E402
+from studies.cli import say, study_parser  # noqa: E402
+from studies.evaluation import JOINT_HEADERS  # noqa: E402
+from studies.long_operation import OperationSessionConfig, kind_seed, operation_session  # noqa: E402
+from studies.methods import Method, MethodSettings, dnn, regression  # noqa: E402
+from studies.sessions import all_combinations, training_sets  # noqa: E402
+from studies.sweeps import run_tasks  # noqa: E402
+from studies.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
+
+STUDY = "train_on_error"
+MODELS = ("dnn", "linear", "polynomial")
+MODEL_LABELS = {"dnn": "DNN", "linear": "Lin Reg", "polynomial": "Poly Reg"}
+MODES = ("error", "end_to_end")
+
+
+@dataclass(frozen=True)
+class TrainOnErrorConfig:
+    """Session (unloaded operation) and budgets of the study."""
+
+    session: OperationSessionConfig = field(default_factory=OperationSessionConfig)
+    settings: MethodSettings = field(default_factory=MethodSettings)
+
+    @classmethod
+    def quick(cls, seed: int = 0, **changes) -> "TrainOnErrorConfig":
+        """Two sparsities, 18 minutes of operation in 6-minute blocks, one DNN seed."""
+        session = OperationSessionConfig(seed=seed, hours=0.3, sparsities=(1 / 2, 1 / 3), eval_stride=10,
+                                         block_hours=0.1)
+        return cls(**{"session": session, "settings": MethodSettings.quick(), **changes})
+
+
+def methods(settings: MethodSettings) -> dict[tuple[str, str], Method]:
+    """Each model trained on the error and end-to-end."""
+    out = {}
+    for mode in MODES:
+        on_error = mode == "error"
+        out[("dnn", mode)] = dnn(settings, train_on_error=on_error, key=f"dnn_{mode}")
+        for model in ("linear", "polynomial"):
+            out[(model, mode)] = regression(model, train_on_error=on_error, key=f"{model}_{mode}")
+    return out
+
+
+def run(config: TrainOnErrorConfig, *, n_jobs: int = -1, backend: str = "loky", scheduler: str | None = None,
+        progress: bool = True) -> dict:
+    """Simulate the unloaded session; train each model both ways on every training set; average."""
+    s = config.session
+    seed = kind_seed(s.seed, "unloaded")
+    (parts, hours), = run_tasks(operation_session, [("unloaded", seed, s)], n_jobs=1, backend=backend,
+                                scheduler=scheduler, progress=progress, description="session")
+    sets = training_sets(parts["selected"], all_combinations(s.sparsities))
+    tests = hours["selected"]
+    recipes = methods(config.settings)
+    cells = [GridCell((model, mode, label), recipes[(model, mode)], train, tests)
+             for (model, mode) in recipes for label, train in sets.items()]
+    outcomes = fit_grid(cells, seed=s.seed, n_jobs=n_jobs, backend=backend, scheduler=scheduler, progress=progress)
+    rmse = {model: {mode: np.nanmean([mean_joint_rmse(outcomes[(model, mode, label)], h)
+                                      for label in sets for h in tests], axis=0).tolist()
+                    for mode in MODES} for model in MODELS}
+    return {"training_sets": list(sets), "hours": list(tests), "rmse": rmse, "session_seed": seed,
+            "failures": failures(outcomes)}
+
+
+def finding(results: dict) -> str:
+    r = results["rmse"]
+    dnn_worse = [e2e / err for err, e2e in zip(r["dnn"]["error"], r["dnn"]["end_to_end"])]
+    linear_same = [abs(e2e / err - 1.0) for err, e2e in zip(r["linear"]["error"], r["linear"]["end_to_end"])]
+    agrees = all(v > 1.0 for v in dnn_worse) and all(v < 0.01 for v in linear_same)
+    simulated = ("end-to-end / on-error RMSE, joints 1/2/3: DNN " + "/".join(f"{v:.2f}" for v in dnn_worse)
+                 + "; linear " + "/".join(f"{1 + d:.3f}" for d in linear_same) + "; polynomial "
+                 + "/".join(f"{e2e / err:.3f}" for err, e2e in zip(r["polynomial"]["error"], r["polynomial"]["end_to_end"]))
+                 + ".")
+    return reporting.agreement_line(agrees, simulated, paper.FINDINGS["train_on_error"])
+
+
+def tables(results: dict) -> list[str]:
+    headers = ["Model", "Data"]
+    for joint in JOINT_HEADERS:
+        headers += [f"{joint} Err", f"{joint} E-to-E"]
+    rows = []
+    for model in MODELS:
+        for source, values in (("simulated here", results["rmse"][model]), ("published", paper.TABLE_II[model])):
+            row = [MODEL_LABELS[model], source]
+            for j in range(3):
+                row += [values["error"][j], values["end_to_end"][j]]
+            rows.append(row)
+    sections = ["## Trained on error (Err) vs end-to-end (E-to-E), Table II layout", "",
+                reporting.markdown_table(headers, rows), "",
+                f"Each simulated entry is the RMSE averaged over {len(results['training_sets'])} training sets "
+                f"({', '.join(results['training_sets'])}) and {len(results['hours'])} blocks of unloaded operation."]
+    if results["failures"]:
+        sections += ["", "Failed training runs:", *[f"- {line}" for line in results["failures"]]]
+    return sections
+
+
+def figures(results: dict, out: Path) -> list[Path]:
+    groups = [MODEL_LABELS[m] for m in MODELS]
+    series = {f"{mode.replace('_', '-')} (simulated)": np.array([results["rmse"][m][mode] for m in MODELS])
+              for mode in MODES}
+    series.update({f"{mode.replace('_', '-')} (paper)": np.array([paper.TABLE_II[m][mode] for m in MODELS])
+                   for mode in MODES})
+    return [plots.grouped_bars(groups, series, JOINT_HEADERS, out / "train_on_error.png",
+                               "Trained on error vs end-to-end (Table II)")]
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = study_parser(STUDY, __doc__.splitlines()[0])
+    parser.add_argument("--hours", type=float, default=None, help="hours of unloaded operation")
+    parser.add_argument("--dnn-seeds", type=int, default=None, help="network training seeds to average")
+    args = parser.parse_args(argv)
+    config = TrainOnErrorConfig.quick(args.seed) if args.quick else \
+        TrainOnErrorConfig(session=OperationSessionConfig(seed=args.seed))
+    if args.hours is not None:
+        config = replace(config, session=replace(config.session, hours=args.hours))
+    if args.dnn_seeds is not None:
+        config = replace(config, settings=config.settings.with_(dnn_seeds=args.dnn_seeds))
+    started, clock = reporting.now_iso(), time.perf_counter()
+    say(f"unloaded session: calibration then {config.session.hours:g} h; models trained on error and end-to-end")
+    results = run(config, n_jobs=args.jobs, backend=args.backend, scheduler=args.scheduler,
+                  progress=not args.no_progress)
+    document = reporting.study_document(STUDY, config, started, time.perf_counter() - clock, **results)
+    document["finding"] = finding(results)
+    document["published"] = {"table_ii": paper.TABLE_II}
+    paths = reporting.write_study(args.out, document, "Training on error vs end-to-end (Table II)",
+                                  tables(results), figures(results, args.out))
+    print("\n".join(tables(results)))
+    print(document["finding"])
+    say(f"wrote {args.out} ({len(paths)} files) in {time.perf_counter() - clock:.0f} s")
+    return document
+
+
+if __name__ == "__main__":
+    main()

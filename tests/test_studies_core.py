@@ -1,0 +1,262 @@
+"""The numerical core of the studies: samples, scores, methods, sweeps, reports, paper numbers."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from kinematics import RavenII
+from studies import paper_numbers as paper
+from studies.evaluation import (
+    cartesian_rmse_report,
+    joint_rmse_report,
+    mean_scores,
+    percentage_of,
+    score,
+    to_report_units,
+)
+from studies.methods import CalibratorOnSamples, Method, MethodSettings, dnn, method_catalogue, raw, regression, seeds_for
+from studies.reporting import agreement_line, format_value, markdown_table, to_jsonable, write_json
+from studies.samples import Samples
+from studies.sweeps import run_tasks
+from studies.training import fit_and_score, run_methods
+from studies.ukf_adapter import UKFOnSamples, ukf_unavailable_reason
+from estimators import LinearCalibrator, WindowLinearCalibrator
+
+
+def synthetic_samples(n=400, seed=0, recordings=1, tool=True):
+    """Joints in the calibration workspace; raw = truth + a torque-dependent stretch + offset."""
+    rng = np.random.default_rng(seed)
+    truth = np.column_stack([rng.uniform(0.35, 1.05, n), rng.uniform(0.96, 1.92, n), rng.uniform(0.33, 0.42, n)])
+    torque = rng.normal(size=(n, 3))
+    raw_joints = truth + 0.01 * torque + np.array([0.02, -0.03, 0.004])
+    X = np.hstack([raw_joints, torque])
+    tool_joints = rng.uniform(-0.5, 0.5, (n, 3)) if tool else None
+    recording = np.repeat(np.arange(recordings), int(np.ceil(n / recordings)))[:n]
+    return Samples(X=X, feature_names=("r1", "r2", "r3", "t1", "t2", "t3"), raw_columns=(0, 1, 2), targets=truth,
+                   time=np.arange(n) / 30.0, recording=recording, tool_joints=tool_joints)
+
+
+# --- samples -----------------------------------------------------------------------------------
+
+
+def test_samples_reject_bad_shapes_and_values():
+    good = synthetic_samples(20)
+    with pytest.raises(ValueError, match="targets"):
+        Samples(X=good.X, feature_names=good.feature_names, raw_columns=(0, 1, 2), targets=good.targets[:5],
+                time=good.time, recording=good.recording)
+    bad = good.X.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        Samples(X=bad, feature_names=good.feature_names, raw_columns=(0, 1, 2), targets=good.targets,
+                time=good.time, recording=good.recording)
+    with pytest.raises(ValueError, match="raw_columns"):
+        Samples(X=good.X, feature_names=good.feature_names, raw_columns=(0, 1, 9), targets=good.targets,
+                time=good.time, recording=good.recording)
+    interleaved = np.array([0, 1] * 10)
+    with pytest.raises(ValueError, match="consecutive"):
+        Samples(X=good.X, feature_names=good.feature_names, raw_columns=(0, 1, 2), targets=good.targets,
+                time=good.time, recording=interleaved)
+
+
+def test_samples_concat_renumbers_recordings_and_select_marks_thinning():
+    a, b = synthetic_samples(30, recordings=2), synthetic_samples(20, seed=1)
+    joined = Samples.concat([a, b])
+    assert [rows.size for rows in joined.recordings()] == [15, 15, 20]
+    assert np.array_equal(joined.X[30:], b.X)
+    assert joined.select(np.arange(10, 40)).stride == 1
+    assert joined.select(np.arange(0, 50, 5)).stride > 1
+    with pytest.raises(ValueError, match="increasing"):
+        joined.select(np.array([3, 1]))
+
+
+# --- scores ------------------------------------------------------------------------------------
+
+
+def test_report_units_are_degrees_and_millimetres():
+    assert np.allclose(to_report_units([np.pi, np.pi / 180, 0.001]), [180.0, 1.0, 1.0])
+    truth = np.zeros((4, 3))
+    estimate = np.tile([np.radians(2.0), 0.0, 0.003], (4, 1))
+    assert np.allclose(joint_rmse_report(truth, estimate), [2.0, 0.0, 3.0])
+
+
+def test_cartesian_rmse_equals_pinocchio_forward_kinematics():
+    samples = synthetic_samples(60)
+    estimate = samples.targets + np.array([0.002, -0.004, 0.0015])
+    robot = RavenII("left", check_limits=False)
+    reported = cartesian_rmse_report(robot, samples.targets, estimate, samples.tool_joints)
+    # independent computation: Pinocchio's FK, one configuration at a time
+    errors = []
+    for q3_true, q3_est, tool in zip(samples.targets, estimate, samples.tool_joints):
+        p_true = robot.forward_kinematics(np.r_[q3_true, tool], backend="pinocchio")[:3, 3]
+        p_est = robot.forward_kinematics(np.r_[q3_est, tool], backend="pinocchio")[:3, 3]
+        errors.append(p_est - p_true)
+    errors = np.array(errors) * 1e3
+    expected = np.r_[np.sqrt(np.mean(errors**2, axis=0)), np.sqrt(np.mean(np.sum(errors**2, axis=1)))]
+    assert np.allclose(reported, expected, rtol=1e-9, atol=1e-9)
+    # an insertion error moves the tool tip by about as much (the RCM is the base origin)
+    only_insertion = samples.targets + np.array([0.0, 0.0, 0.001])
+    assert cartesian_rmse_report(robot, samples.targets, only_insertion, samples.tool_joints)[3] == \
+        pytest.approx(1.0, rel=0.02)
+
+
+def test_score_without_tool_joints_has_no_cartesian_part_and_checks_shape():
+    samples = synthetic_samples(50, tool=False)
+    result = score(samples.raw_joints, samples)
+    assert result.cartesian is None and result.joint.shape == (3,)
+    with pytest.raises(ValueError, match="shape"):
+        score(samples.raw_joints[:10], samples)
+
+
+def test_mean_scores_and_percentages():
+    samples = synthetic_samples(50)
+    a, b = score(samples.raw_joints, samples), score(samples.targets + 1e-4, samples)
+    assert np.allclose(mean_scores([a, b]).joint, (a.joint + b.joint) / 2)
+    assert np.allclose(percentage_of([0.104, 0.120], [0.859, 1.095]), [12.1, 10.96], atol=0.01)
+    with pytest.raises(ValueError):
+        percentage_of([1.0], [0.0])
+
+
+# --- methods -----------------------------------------------------------------------------------
+
+
+def test_fixed_offset_and_linear_correct_a_biased_stretched_encoder():
+    train, test = synthetic_samples(600), synthetic_samples(300, seed=5)
+    rmse = {}
+    for method in (raw(), regression("fixed_offset"), regression("linear")):
+        outcome = fit_and_score(method, 0, train, {"test": test})
+        assert outcome.error is None
+        rmse[method.key] = outcome.scores["test"].joint
+    assert np.all(rmse["linear"] < 1e-6)  # the synthetic error is exactly linear in X
+    assert np.all(rmse["fixed_offset"] < rmse["raw"])
+
+
+def test_end_to_end_and_on_error_linear_models_predict_the_same():
+    train, test = synthetic_samples(500), synthetic_samples(100, seed=3)
+    on_error = CalibratorOnSamples(LinearCalibrator()).fit(train).predict(test)
+    end_to_end = CalibratorOnSamples(LinearCalibrator(), train_on_error=False).fit(train).predict(test)
+    assert np.allclose(on_error, end_to_end, atol=1e-10)
+
+
+def test_window_model_refuses_thinned_samples_and_predicts_each_recording_from_its_start():
+    train = synthetic_samples(300, recordings=3)
+    model = CalibratorOnSamples(WindowLinearCalibrator(window=4), temporal=True).fit(train)
+    whole = model.predict(train)
+    second = train.select(train.recording == 1)
+    assert np.allclose(whole[train.recording == 1], model.predict(second))
+    with pytest.raises(ValueError, match="every"):
+        model.predict(train.select(np.arange(0, 300, 3)))
+
+
+class _Exploding:
+    def fit(self, samples):
+        raise RuntimeError("boom")
+
+
+def _explode(seed):
+    return _Exploding()
+
+
+def test_a_failing_method_is_reported_not_raised_and_unrunnable_ones_say_why():
+    samples = synthetic_samples(100)
+    method = Method("boom", "Boom", "-", "test", _explode)
+    assert fit_and_score(method, 0, samples, {"test": samples}).error == "RuntimeError: boom"
+    runs = run_methods([method, method_catalogue(MethodSettings.quick())["ukf"]], samples, {"test": samples},
+                       n_jobs=1, backend="sequential", progress=False)
+    assert runs["boom"].status == "failed" and "boom" in runs["boom"].note
+    # the UKF is either not installed, or cannot run on samples without the robot state
+    assert runs["ukf"].status in ("not available", "skipped") and runs["ukf"].note
+
+
+class _Noisy:
+    def fit(self, samples):
+        for _ in range(10):
+            warnings.warn("identification did not converge", RuntimeWarning)
+        return self
+
+    def predict(self, samples):
+        return samples.raw_joints
+
+
+def _noisy(seed):
+    return _Noisy()
+
+
+def test_warnings_of_a_method_are_collected_once_each():
+    samples = synthetic_samples(30)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing may escape to the caller
+        outcome = fit_and_score(Method("noisy", "Noisy", "-", "test", _noisy), 0, samples, {"test": samples})
+    assert outcome.warnings == ("RuntimeWarning: identification did not converge",)
+    assert outcome.error is None
+
+
+def test_ukf_needs_the_full_robot_state():
+    samples = synthetic_samples(50)
+    if ukf_unavailable_reason() is None:
+        with pytest.raises(ValueError, match="robot state"):
+            UKFOnSamples().fit(samples)
+    else:
+        assert ukf_unavailable_reason().startswith("not available")
+
+
+def test_network_seeds_are_independent_but_reproducible():
+    method = dnn(MethodSettings(dnn_seeds=3, dnn_epochs=2))
+    assert seeds_for(method, 7) == seeds_for(method, 7)
+    assert len(set(seeds_for(method, 7))) == 3
+    assert seeds_for(method, 7) != seeds_for(method, 8)
+
+
+def test_method_settings_reject_nonsense():
+    with pytest.raises(ValueError, match="dnn_seeds"):
+        MethodSettings(dnn_seeds=0)
+    with pytest.raises(ValueError, match="two_phase_max_samples"):
+        MethodSettings(two_phase_max_samples=-3)
+
+
+# --- sweeps ------------------------------------------------------------------------------------
+
+
+def _square_after(delay_rank: int, value: int) -> int:
+    import time
+    time.sleep(0.01 * delay_rank)
+    return value * value
+
+
+def test_sweep_results_come_back_in_task_order():
+    tasks = [(3 - k, k) for k in range(4)]
+    assert run_tasks(_square_after, tasks, n_jobs=2, backend="threading", progress=False) == [0, 1, 4, 9]
+    with pytest.raises(ValueError, match="backend"):
+        run_tasks(_square_after, tasks, backend="mpi", progress=False)
+
+
+# --- reporting ---------------------------------------------------------------------------------
+
+
+def test_tables_and_json_are_plain(tmp_path):
+    table = markdown_table(["a", "b"], [["x", 1.23456], ["y", None], ["z", (0.1, 0.25)]])
+    assert "| x | 1.235 |" in table and "| y | - |" in table and "0.100-0.250" in table
+    with pytest.raises(ValueError, match="cells"):
+        markdown_table(["a", "b"], [["only one"]])
+    assert format_value(float("nan")) == "-"
+    path = write_json(tmp_path / "r.json", {"v": np.array([1.0, np.nan]), "n": np.int64(3)})
+    assert json.loads(path.read_text()) == {"v": [1.0, None], "n": 3}
+    assert to_jsonable(MethodSettings())["dnn_seeds"] == 5
+    assert agreement_line(False, "a", "b").startswith("**Finding: DOES NOT AGREE")
+
+
+# --- paper numbers -----------------------------------------------------------------------------
+
+
+def test_paper_table_i_reproduces_its_printed_percentages():
+    # percentages printed in Table I (of fixed offset): J2-J3 DNN 12.1/10.9/24.0, J1 poly joint 3 83.5
+    j2j3 = paper.TABLE_I["J2-J3"]
+    assert np.allclose(percentage_of(j2j3["dnn"], j2j3["fixed_offset"]), [12.1, 10.9, 24.0], atol=0.06)
+    assert math.isclose(100 * paper.TABLE_I["J1"]["polynomial"][2] / paper.TABLE_I["J1"]["fixed_offset"][2],
+                        83.5, abs_tol=0.06)
+    assert paper.HEADLINE["dnn_joint_rmse"] == j2j3["dnn"]
+    assert set(paper.TABLE_I) == set(paper.TABLE_I_DIRECTIONS)
