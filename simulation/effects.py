@@ -115,8 +115,8 @@ class CableStretch(Effect):
     """
 
     name: ClassVar[str] = "cable_stretch"
-    stiffness: np.ndarray = field(default_factory=lambda: np.array([41.054753, 15.255867, 870.869759]))
-    hardening: np.ndarray = field(default_factory=lambda: np.array([0.019402, 0.051751, 0.004884]))
+    stiffness: np.ndarray = field(default_factory=lambda: np.array([40.6049, 13.361167, 774.623951]))
+    hardening: np.ndarray = field(default_factory=lambda: np.array([0.019015, 0.04312, 0.004775]))
     damping: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.4, 60.0]))
 
     def __post_init__(self):
@@ -226,7 +226,9 @@ class Hysteresis(Effect):
 
         dz/dt = ds/dt - beta * |ds/dt| * z - gamma * ds/dt * |z|,
 
-    which saturates at ``z = 1/(beta + gamma)`` (stretch units). ``stiffness`` in N m/rad, N/m;
+    which saturates at ``z = 1/(beta + gamma)`` (stretch units). The state follows the stretch
+    averaged over 50 ms (the strands slip with the cable's mean stretch, not with the servo's
+    millisecond chatter, which would otherwise dither the loop away). ``stiffness`` in N m/rad, N/m;
     ``beta`` and ``gamma`` in 1/rad, 1/m. The joint error then traces a loop against the tension
     that turns smoothly after each reversal (unlike the jump of backlash).
     """
@@ -265,7 +267,7 @@ class Drift(Effect):
 
     name: ClassVar[str] = "drift"
     stiffness_loss: np.ndarray = field(default_factory=lambda: np.array([0.04, 0.02, 0.01]))
-    creep_rate: np.ndarray = field(default_factory=lambda: np.array([2.411712e-03, 1.125321e-03, 1.017353e-05]))
+    creep_rate: np.ndarray = field(default_factory=lambda: np.array([2.463342e-03, 9.549788e-04, 1.096092e-05]))
     payload_gain: np.ndarray = field(default_factory=lambda: np.array([2.0, 1.0, 1.0]))
     reference_speed: np.ndarray = field(default_factory=lambda: np.array([0.035, 0.035, 0.004]))
     time_scale: float = 1.0

@@ -60,7 +60,9 @@ X_PB = 20        # 3 backlash outputs
 X_Z = 23         # 3 Bouc-Wen states
 X_DOSE = 26      # 3 fatigue doses (equivalent hours)
 X_QT = 29        # 4 tool joint positions
-N_PLANT = 33
+X_SF = 33        # 3 cable stretches smoothed over the hysteresis response time
+X_QF = 36        # 3 link positions smoothed the same way (the travel that ages the cables)
+N_PLANT = 39
 
 # Controller state vector.
 C_PREV = 0       # 7 previous motor positions (rad, motor shaft)
@@ -94,6 +96,10 @@ N_ILOG = 15
 
 MODE_TRAJECTORY = 0
 MODE_HOMING = 1
+
+HYSTERESIS_RESPONSE_TIME = 0.05
+"""Time constant (s) over which the cable's hysteresis follows its stretch (see ``Hysteresis``) and
+its fatigue follows the joint's travel (see ``Drift``)."""
 
 MASS_UPDATE_TICKS = 4
 """Servo ticks between refreshes of the links' inertia matrix (it moves < 0.01 % in 4 ms)."""
@@ -340,8 +346,11 @@ def servo_loop(mode, start_tick, n_ticks, traj_q, traj_qd, traj_rate, traj_t0,
     fv = np.zeros(3)
     unit = np.zeros(3)
     column = np.zeros(3)
-    inv_mass_diag = np.ones(3)
+    inv_mass = np.eye(3)
     mass = np.eye(3)
+    v_free = np.zeros(3)
+    visc = np.zeros((3, 3))
+    dry = np.zeros(3)
     a_nom_inv = np.linalg.inv(a_nom)
 
     log_row = 0
@@ -527,7 +536,8 @@ def servo_loop(mode, start_tick, n_ticks, traj_q, traj_qd, traj_rate, traj_t0,
                 unit[:] = 0.0
                 unit[i] = 1.0
                 _solve3(mass, unit, column)
-                inv_mass_diag[i] = column[i]
+                for a in range(3):
+                    inv_mass[a, i] = column[a]
 
         for sub in range(nsub):
             # cable-side positions of the positioning joints
@@ -564,20 +574,37 @@ def servo_loop(mode, start_tick, n_ticks, traj_q, traj_qd, traj_rate, traj_t0,
                         + table[R_DAMP, i] * srate
                     if flags[E_HYSTERESIS] == 1:
                         tension[i] += table[R_HK, i] * plant[X_Z + i]
-                        plant[X_Z + i] += h * bouc_wen_rate(plant[X_Z + i], srate, table[R_HB, i], table[R_HG, i])
+                        smoothed = plant[X_SF + i] + h / HYSTERESIS_RESPONSE_TIME * (stretch[i] - plant[X_SF + i])
+                        mean_rate = (smoothed - plant[X_SF + i]) / h
+                        plant[X_SF + i] = smoothed
+                        plant[X_Z + i] += h * bouc_wen_rate(plant[X_Z + i], mean_rate, table[R_HB, i], table[R_HG, i])
                 for i in range(3):
                     rhs[i] = tension[i] - grav[i]
                 _solve3(mass, rhs, acc)
                 for i in range(3):
-                    # friction, implicit: viscous solved for the new velocity, dry friction set-valued
-                    # (the joint sticks when the step's free motion is within its friction impulse)
-                    velocity = (plant[X_QD + i] + h * acc[i]) / (1.0 + h * inv_mass_diag[i] * fv[i])
-                    impulse = h * inv_mass_diag[i] * fc[i]
-                    if abs(velocity) <= impulse:
+                    v_free[i] = plant[X_QD + i] + h * acc[i]
+                # friction, implicit and consistent with the coupled inertia (W = M^-1):
+                # viscous solved for the new velocity, (I + h W Fv) v = v_free ...
+                for a in range(3):
+                    for b in range(3):
+                        visc[a, b] = h * inv_mass[a, b] * fv[b]
+                    visc[a, a] += 1.0
+                _solve3(visc, v_free, tmp3)
+                # ... then dry friction as a box-constrained impulse (projected Gauss-Seidel): a joint
+                # sticks while the force that stops it is within its friction force
+                for i in range(3):
+                    v_free[i] = tmp3[i]
+                    dry[i] = 0.0
+                for _ in range(4):
+                    for i in range(3):
+                        v_i = v_free[i] - h * (inv_mass[i, 0] * dry[0] + inv_mass[i, 1] * dry[1] + inv_mass[i, 2] * dry[2])
+                        f_i = dry[i] + v_i / (h * inv_mass[i, i])
+                        dry[i] = min(max(f_i, -fc[i]), fc[i])
+                for i in range(3):
+                    velocity = v_free[i] - h * (inv_mass[i, 0] * dry[0] + inv_mass[i, 1] * dry[1] + inv_mass[i, 2] * dry[2])
+                    if fc[i] > 0.0 and abs(dry[i]) < fc[i]:
                         velocity = 0.0
-                    else:
-                        velocity -= impulse if velocity > 0.0 else -impulse
-                    fric[i] = (plant[X_QD + i] + h * acc[i] - velocity) / (h * inv_mass_diag[i])
+                    fric[i] = dry[i] + fv[i] * velocity
                     plant[X_QD + i] = velocity
                     plant[X_Q + i] += h * velocity
                 for i in range(3):
@@ -645,7 +672,11 @@ def servo_loop(mode, start_tick, n_ticks, traj_q, traj_qd, traj_rate, traj_t0,
 
             if flags[E_DRIFT] == 1:
                 for i in range(3):
-                    plant[X_DOSE + i] += h * fatigue_rate(plant[X_QD + i], table[R_DVREF, i], table[R_DLG, i],
+                    # the cable ages with the joint's travel, not with the servo's millisecond chatter
+                    smoothed = plant[X_QF + i] + h / HYSTERESIS_RESPONSE_TIME * (plant[X_Q + i] - plant[X_QF + i])
+                    travel_rate = (smoothed - plant[X_QF + i]) / h
+                    plant[X_QF + i] = smoothed
+                    plant[X_DOSE + i] += h * fatigue_rate(travel_rate, table[R_DVREF, i], table[R_DLG, i],
                                                           payload, time_scale)
 
             # tool DOFs: motors with rigid coupling and a quasi-static cable compliance

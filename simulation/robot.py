@@ -156,6 +156,8 @@ class VirtualRaven:
         self.plant[E.X_U:E.X_U + 7] = u
         self.plant[E.X_Q:E.X_Q + 3] = home[:3]
         self.plant[E.X_PB:E.X_PB + 3] = home[:3] + stretch
+        self.plant[E.X_SF:E.X_SF + 3] = stretch
+        self.plant[E.X_QF:E.X_QF + 3] = home[:3]
         self.plant[E.X_QT:E.X_QT + 4] = home[3:]
         power_on = self._rng.integers(-20000, 20000, size=7).astype(float)
         self.ctrl[E.C_POWERON:E.C_POWERON + 7] = power_on

@@ -167,9 +167,9 @@ def test_no_motion_and_constant_torque_is_reported_not_identifiable():
 
 
 def test_a_parameter_the_data_cannot_determine_is_flagged():
-    # nearly linear cables (hardening stretch of 1 rad, 1 m): the shoulder and insertion stretch
+    # nearly linear cables (hardening stretch of 10 rad, 10 m): the shoulder and insertion stretch
     # too little for the data to say how far away the hardening sets in; stiffness and loads stay pinned
-    linear = RavenParameters().effect("cable_stretch").replace(hardening=np.ones(3))
+    linear = RavenParameters().effect("cable_stretch").replace(hardening=np.full(3, 10.0))
     robot = powered_on(RavenParameters().only(*MODEL).with_effect(linear), seed=1)
     recording = record_random_test(robot, 60.0, seed=3)
     with pytest.warns(PoorlyIdentifiedWarning, match="hardening"):
