@@ -1,0 +1,175 @@
+"""The candidate library: the simulator's named effects, as parameterized additions to a model.
+
+A :class:`Candidate` knows which effect it adds, its free parameters (with bounds and a typical
+scale), and how to put an effect with given parameter values into a model. For RAVEN-II models
+the addition is the simulator's own effect object (:mod:`simulation.effects`), so "adding the
+missing effect" is adding that object to the model's parameter set; for generic models it is the
+effect's joint-space form (:mod:`simulation.discrepancy.generic`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from simulation.effects import Backlash, CoulombFriction, Coupling, Drift, GravityStretch, Hysteresis, ViscousFriction
+
+from .generic import NominalModel
+from .replay import RavenModel
+from .signals import MeasuredSignals
+
+
+@dataclass(frozen=True)
+class ParameterBlock:
+    """One named parameter of a candidate, one value per joint (or a matrix flattened)."""
+
+    name: str
+    size: int
+    lower: float | np.ndarray
+    upper: float | np.ndarray
+    scale: float | tuple | np.ndarray
+    initial: float | tuple | np.ndarray
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A named effect that the workflow can fit to a residual and add to a model.
+
+    Attributes
+    ----------
+    name : the effect's name (the simulator's vocabulary).
+    blocks : the free parameters.
+    build : maps (model, {block name: values}) to the model with the effect added.
+    applies : whether the effect can be added to this model and data (and why not).
+    """
+
+    name: str
+    blocks: tuple[ParameterBlock, ...]
+    build: Callable
+    applies: Callable
+
+    @property
+    def n_parameters(self) -> int:
+        return sum(b.size for b in self.blocks)
+
+    def unpack(self, theta: np.ndarray) -> dict[str, np.ndarray]:
+        values, start = {}, 0
+        for block in self.blocks:
+            values[block.name] = np.asarray(theta[start:start + block.size], dtype=float)
+            start += block.size
+        return values
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(lower, upper, scale, initial) for the flattened parameter vector."""
+        def spread(value, size):
+            return np.broadcast_to(np.asarray(value, dtype=float), (size,))
+
+        parts = [(spread(b.lower, b.size), spread(b.upper, b.size), spread(b.scale, b.size), spread(b.initial, b.size))
+                 for b in self.blocks]
+        return tuple(np.concatenate(p) for p in zip(*parts))
+
+    def apply(self, model, theta: np.ndarray):
+        return self.build(model, self.unpack(theta))
+
+
+def _not_in(model, name):
+    if name in model.enabled_effects:
+        return False, f"{name} is already in the model"
+    return True, ""
+
+
+def _raven_only(model, signals, name):
+    if not isinstance(model, RavenModel):
+        return False, f"{name} needs a RAVEN-II cable model"
+    return _not_in(model, name)
+
+
+def _any(model, signals, name):
+    return _not_in(model, name)
+
+
+def _homing_applies(model, signals, name):
+    if not isinstance(model, RavenModel):
+        return False, "homing offsets need RAVEN-II homing labels"
+    if len(np.unique(signals.homing)) < 2:
+        return False, "the data spans a single homing"
+    return _not_in(model, name)
+
+
+def _raven_effect(effect_factory):
+    def build(model, values):
+        if isinstance(model, RavenModel):
+            return model.with_effect(effect_factory(model, values))
+        raise TypeError("this candidate builds RAVEN-II effects")
+    return build
+
+
+def _generic(name):
+    def build(model, values):
+        return model.with_effect(name, values)
+    return build
+
+
+def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
+    """The library for RAVEN-II data (the cable model's effects)."""
+    homings = np.unique(signals.homing)
+    extra_homings = tuple(int(h) for h in homings[1:])
+
+    def homing_build(model, values):
+        offsets = values["offset"].reshape(-1, 3)
+        return model.with_homing_offsets({c: offsets[i] for i, c in enumerate(extra_homings)})
+
+    return [
+        Candidate("backlash", (ParameterBlock("half_width", 3, 0.0, 0.02, (1e-3, 1e-3, 5e-5), 0.0),),
+                  _raven_effect(lambda m, v: Backlash(half_width=v["half_width"])), _raven_only),
+        Candidate("coulomb_friction", (ParameterBlock("force", 3, 0.0, 20.0, (0.2, 0.2, 1.0), 0.0),),
+                  _raven_effect(lambda m, v: CoulombFriction(force=v["force"])), _raven_only),
+        Candidate("viscous_friction", (ParameterBlock("coefficient", 3, 0.0, 500.0, (0.5, 0.5, 10.0), 0.0),),
+                  _raven_effect(lambda m, v: ViscousFriction(coefficient=v["coefficient"])), _raven_only),
+        Candidate("hysteresis", (ParameterBlock("stiffness", 3, 0.0, 1e5, (20.0, 10.0, 1000.0), 0.0),
+                                 ParameterBlock("width", 3, 1e-6, 0.05, (3e-3, 3e-3, 2e-4), (3e-3, 3e-3, 2e-4))),
+                  _raven_effect(lambda m, v: Hysteresis(stiffness=v["stiffness"], beta=0.7 / v["width"],
+                                                        gamma=0.3 / v["width"])), _raven_only),
+        Candidate("gravity_stretch", (ParameterBlock("load_scale", 3, 0.0, 3.0, 1.0, 0.0),),
+                  _raven_effect(lambda m, v: GravityStretch(load_scale=v["load_scale"])), _raven_only),
+        Candidate("coupling", (ParameterBlock("delta", 3, -0.1, 0.1, (0.01, 0.002, 0.002), 0.0),),
+                  _raven_effect(lambda m, v: Coupling(delta=v["delta"])), _raven_only),
+        Candidate("drift", (ParameterBlock("creep_rate", 3, 0.0, 10.0, (3e-2, 3e-2, 3e-4), 0.0),
+                            ParameterBlock("stiffness_loss", 3, 0.0, 1000.0, 0.5, 0.0)),
+                  _raven_effect(lambda m, v: Drift(creep_rate=v["creep_rate"], stiffness_loss=v["stiffness_loss"])),
+                  _raven_only),
+        Candidate("homing_offset", (ParameterBlock("offset", 3 * len(extra_homings), -0.1, 0.1, 1e-3, 0.0),),
+                  homing_build, _homing_applies),
+    ]
+
+
+def generic_candidates(signals: MeasuredSignals) -> list[Candidate]:
+    """The library for generic data (joint-space forms of the same effects)."""
+    j = signals.n_joints
+    span = np.max(np.ptp(signals.reported, axis=0))
+    return [
+        Candidate("backlash", (ParameterBlock("half_width", j, 0.0, 0.5 * span, 1e-2, 1e-3),), _generic("backlash"), _any),
+        Candidate("coulomb_friction", (ParameterBlock("lag", j, -0.5 * span, 0.5 * span, 1e-2, 0.0),),
+                  _generic("coulomb_friction"), _any),
+        Candidate("viscous_friction", (ParameterBlock("lag_per_speed", j, -10.0, 10.0, 0.1, 0.0),),
+                  _generic("viscous_friction"), _any),
+        Candidate("hysteresis", (ParameterBlock("amplitude", j, -0.5 * span, 0.5 * span, 1e-2, 0.0),
+                                 ParameterBlock("width", j, 1e-4, span, 0.05, 0.05)), _generic("hysteresis"), _any),
+        Candidate("coupling", (ParameterBlock("matrix", j * (j - 1), -1.0, 1.0, 0.05, 0.0),), _generic("coupling"), _any),
+        Candidate("drift", (ParameterBlock("creep", j, -0.1, 0.1, 1e-3, 0.0),), _generic("drift"), _any),
+    ]
+
+
+def library(signals: MeasuredSignals) -> list[Candidate]:
+    """The candidate library for this kind of data."""
+    return raven_candidates(signals) if signals.kind == "raven" else generic_candidates(signals)
+
+
+LIBRARY_NAMES = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "gravity_stretch", "coupling",
+                 "drift", "homing_offset")
+"""Effect names the workflow can name. The simulator has more (``capstan_runout``), which the
+library deliberately lacks: a residual they cause is reported as unexplained."""
+
+__all__ = ["Candidate", "LIBRARY_NAMES", "NominalModel", "ParameterBlock", "library"]

@@ -1,0 +1,160 @@
+"""Fitting a candidate effect to a residual with casadi, and scoring it on other data.
+
+The residual is measured minus replayed, for the joints and (when the data has them) the motor
+torques, each channel divided by its typical size on the starting model so the two weigh alike.
+Constant offsets are profiled out in closed form (a registration offset is not an effect). The
+candidate's parameters are found by casadi's Opti with IPOPT, the replay entering as a casadi
+callback whose gradient casadi takes by finite differences (the replay runs operators such as
+backlash and stick-slip friction sample by sample, which have no symbolic form); a few starting
+points guard against local minima.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .candidates import Candidate
+from .signals import MeasuredSignals
+
+
+@dataclass(frozen=True)
+class ChannelWeights:
+    """Typical residual size per joint of each channel (joint units, N m)."""
+
+    joints: np.ndarray
+    torque: np.ndarray | None
+
+    @classmethod
+    def from_residual(cls, joints: np.ndarray, torque: np.ndarray | None, floor: np.ndarray) -> "ChannelWeights":
+        def size(r, lower):
+            return np.maximum(np.sqrt(np.mean(np.square(r - r.mean(axis=0)), axis=0)), lower)
+
+        return cls(joints=size(joints, floor), torque=None if torque is None else size(torque, 1e-6))
+
+
+@dataclass(frozen=True)
+class Residual:
+    """Measured minus replayed, with the best constant offsets removed."""
+
+    joints: np.ndarray
+    torque: np.ndarray | None
+    joint_offsets: np.ndarray
+
+    def chi_square(self, weights: ChannelWeights) -> float:
+        total = float(np.sum(np.square(self.joints / weights.joints)))
+        if self.torque is not None and weights.torque is not None:
+            total += float(np.sum(np.square(self.torque / weights.torque)))
+        return total
+
+
+def residual(model, signals: MeasuredSignals, robot=None, offsets: np.ndarray | None = None,
+             mask: np.ndarray | None = None) -> Residual:
+    """Replay ``model`` along the whole record and return the residual on the samples of ``mask``.
+
+    Replaying the whole record keeps the state of history-dependent effects (backlash, friction,
+    hysteresis, fatigue) continuous across the fit, validation and held-out parts. Offsets are
+    fitted on the masked samples unless given.
+    """
+    state = model.replay(signals, robot)
+    mask = slice(None) if mask is None else mask
+    joints = (signals.truth - state.joints)[mask]
+    if offsets is None:
+        offsets = joints.mean(axis=0)
+    torque = None
+    if state.torque is not None and signals.torque is not None:
+        torque = (signals.torque - state.torque)[mask]
+        torque = torque - torque.mean(axis=0)
+    return Residual(joints=joints - offsets, torque=torque, joint_offsets=offsets)
+
+
+class _Objective(ca.Callback):
+    """Weighted sum of squares of a candidate's residual, as a casadi function of its parameters."""
+
+    def __init__(self, name, evaluate, n):
+        ca.Callback.__init__(self)
+        self._evaluate = evaluate
+        self._n = n
+        self.construct(name, {"enable_fd": True, "fd_method": "forward"})
+
+    def get_n_in(self):
+        return 1
+
+    def get_n_out(self):
+        return 1
+
+    def get_sparsity_in(self, i):
+        return ca.Sparsity.dense(self._n, 1)
+
+    def get_sparsity_out(self, i):
+        return ca.Sparsity.dense(1, 1)
+
+    def eval(self, arg):
+        return [self._evaluate(np.asarray(arg[0]).ravel())]
+
+
+@dataclass(frozen=True)
+class CandidateFit:
+    """A candidate fitted on one data set and scored on another."""
+
+    candidate: Candidate
+    theta: np.ndarray
+    model: object
+    fit_chi_square: float
+    validation_chi_square: float
+    validation_residual: Residual
+
+    @property
+    def values(self) -> dict[str, np.ndarray]:
+        return self.candidate.unpack(self.theta)
+
+
+def fit_candidate(candidate: Candidate, model, signals: MeasuredSignals, weights: ChannelWeights, robot=None,
+                  mask: np.ndarray | None = None, starts: int = 2, max_iter: int = 30,
+                  initial: np.ndarray | None = None) -> tuple[np.ndarray, object, float]:
+    """Parameters of ``candidate`` that best explain the residual of ``model`` on the ``mask`` samples.
+
+    ``initial`` (e.g. the best point of a coarse scan) is the first starting point when given.
+
+    Returns the parameter vector, the model with the fitted effect, and the weighted sum of squares.
+    """
+    lower, upper, scale, typical = candidate.bounds()
+
+    def evaluate(x):
+        theta = np.clip(x * scale, lower, upper)
+        try:
+            return residual(candidate.apply(model, theta), signals, robot, mask=mask).chi_square(weights)
+        except ValueError:
+            return 1e30
+
+    objective = _Objective(f"chi2_{candidate.name}", evaluate, candidate.n_parameters)
+    best_theta, best_value = None, np.inf
+    points = [] if initial is None else [np.asarray(initial, dtype=float)]
+    if initial is not None:
+        # never return worse than where the search started
+        best_theta = np.clip(np.asarray(initial, dtype=float), lower, upper)
+        best_value = evaluate(best_theta / scale)
+    for factor, shift in ((1.0, 0.0), (0.25, 0.5), (4.0, -0.5)):
+        # the typical value scaled down and up, or either side of zero
+        points.append(np.where(typical != 0, typical * factor, shift * scale))
+    for point in points[:starts]:
+        x0 = np.clip(point, lower, upper) / scale
+        opti = ca.Opti()
+        x = opti.variable(candidate.n_parameters)
+        opti.minimize(objective(x))
+        opti.subject_to(opti.bounded(lower / scale, x, upper / scale))
+        opti.set_initial(x, x0)
+        opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "max_iter": max_iter,
+                                                     "hessian_approximation": "limited-memory",
+                                                     "tol": 1e-6, "acceptable_tol": 1e-4})
+        try:
+            solution = opti.solve()
+            x_opt = np.asarray(solution.value(x)).ravel()
+        except RuntimeError:
+            x_opt = np.asarray(opti.debug.value(x)).ravel()
+        value = evaluate(x_opt)
+        if value < best_value:
+            best_theta, best_value = np.clip(x_opt * scale, lower, upper), value
+    return best_theta, candidate.apply(model, best_theta), float(best_value)

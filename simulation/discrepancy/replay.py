@@ -1,0 +1,271 @@
+"""Replay: drive a model with measured inputs and predict what the sensors should read.
+
+For RAVEN-II data the model is the cable model of a :class:`~simulation.parameters.RavenParameters`
+(the fitted model of the identification, or the simulator's): the measured motor positions drive
+the cable coupling, the measured link motion and payload set the link loads (gravity, friction,
+inertia), the cable law turns the loads into stretch, and the prediction is
+
+    joint = play(A u) - creep - stretch(T) + offset,
+    motor torque = (A^T T + J_u u'' + b_u u') * gearbox / transmission ratio,
+
+evaluated quasi-statically sample by sample (the cable's own vibration is far above the 30 Hz
+log). For generic data the nominal model is ``joint = reported + offset``. The residual the
+workflow studies is measured minus predicted, for the joints and, when the data has them, for
+the motor torques, which is what tells effects that look alike in the joints apart.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from simulation.cable_model import play
+from simulation.constants import coupling_matrix
+from simulation.parameters import RavenParameters
+
+from .signals import MeasuredSignals
+
+
+@njit(cache=True)
+def play_series(position: np.ndarray, half_width: float) -> np.ndarray:
+    """Backlash operator over a time series, starting centred (output = input)."""
+    out = np.empty_like(position)
+    state = position[0]
+    for n in range(position.shape[0]):
+        state = play(position[n], state, half_width)
+        out[n] = state
+    return out
+
+
+@njit(cache=True)
+def bouc_wen_series(rate: np.ndarray, time: np.ndarray, beta: float, gamma: float) -> np.ndarray:
+    """Bouc-Wen state (n = 1) driven by a rate series, integrated with sub-steps between samples."""
+    z = np.zeros_like(rate)
+    state = 0.0
+    for n in range(1, rate.shape[0]):
+        dt = time[n] - time[n - 1]
+        r = 0.5 * (rate[n] + rate[n - 1])
+        steps = 1 + int(abs(r) * dt * (beta + gamma) * 10.0)
+        h = dt / steps
+        for _ in range(steps):
+            state += h * (r - beta * abs(r) * state - gamma * r * abs(state))
+        z[n] = state
+    return z
+
+
+@njit(cache=True)
+def _bouc_wen_after(z: float, stretch_change: float, beta: float, gamma: float) -> float:
+    """Bouc-Wen state after the stretch changes by ``stretch_change`` (dz/ds = 1 - beta sgn z - gamma |z|)."""
+    if stretch_change == 0.0:
+        return z
+    steps = 1 + int(abs(stretch_change) * (beta + gamma) * 10.0)
+    ds = stretch_change / steps
+    sign = 1.0 if ds > 0.0 else -1.0
+    for _ in range(steps):
+        z += ds * (1.0 - beta * sign * z - gamma * abs(z))
+    return z
+
+
+@njit(cache=True)
+def _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, softening, k_h, beta, gamma):
+    """Stretch whose elastic plus hysteretic tension equals ``target``.
+
+    The tension grows monotonically with the stretch, so Newton steps kept inside a shrinking
+    bracket (bisection when a step leaves it) converge in a few iterations.
+    """
+    x = 0.5 * (lower + upper)
+    for _ in range(50):
+        z_x = _bouc_wen_after(z, x - previous, beta, gamma)
+        value = stiffness * hardening * np.sinh(x / hardening) / softening + k_h * z_x - target
+        if value > 0.0:
+            upper = x
+        else:
+            lower = x
+        sign = 1.0 if x >= previous else -1.0
+        slope = stiffness * np.cosh(x / hardening) / softening + k_h * max(1.0 - beta * sign * z_x - gamma * abs(z_x), 0.0)
+        step = x - value / slope
+        if not (lower < step < upper):
+            step = 0.5 * (lower + upper)
+        if abs(step - x) < 1e-12 * (1.0 + abs(x)):
+            return step
+        x = step
+    return x
+
+
+@njit(cache=True)
+def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma, time,
+                      start):
+    """Link position of one joint hanging on its cable, sample by sample.
+
+    The link stays put while the cable's tension (elastic ``k x0 sinh(s/x0)`` divided by the
+    fatigue ``softening``, plus the hysteretic ``hysteresis_stiffness * z``) balances the load
+    within the dry friction; otherwise it moves until the tension equals load plus or minus the
+    friction, solved implicitly because the hysteretic tension changes with the stretch (Bouc-Wen)
+    and may be stiffer than the cable itself. Friction and hysteresis thus interact as they do in
+    the simulator. Returns the link positions and the hysteresis state.
+    """
+    n = base.shape[0]
+    link = np.empty(n)
+    zs = np.zeros(n)
+    state = start
+    z = 0.0
+    previous = base[0] - start
+    for k in range(n):
+        stretch = base[k] - state
+        z_stick = _bouc_wen_after(z, stretch - previous, beta, gamma)
+        tension = stiffness * hardening * np.sinh(stretch / hardening) / softening[k] + hysteresis_stiffness * z_stick
+        high = load[k] + dry
+        low = load[k] - dry
+        if tension > high or tension < low:
+            target = high if tension > high else low
+            if hysteresis_stiffness == 0.0:
+                stretch = hardening * np.arcsinh(target * softening[k] / (stiffness * hardening))
+            else:
+                # bracket: the elastic-only stretches for the target shifted by the largest hysteretic tension
+                reach = hysteresis_stiffness / (beta + gamma) + 1e-9
+                lower = hardening * np.arcsinh((target - reach) * softening[k] / (stiffness * hardening)) - 1e-9
+                upper = hardening * np.arcsinh((target + reach) * softening[k] / (stiffness * hardening)) + 1e-9
+                stretch = _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, softening[k],
+                                            hysteresis_stiffness, beta, gamma)
+            z_stick = _bouc_wen_after(z, stretch - previous, beta, gamma)
+            state = base[k] - stretch
+        z = z_stick
+        previous = stretch
+        link[k] = state
+        zs[k] = z
+    return link, zs
+
+
+@dataclass(frozen=True, eq=False)
+class ReplayState:
+    """A model's prediction along measured signals, with the internals candidates build on.
+
+    Attributes
+    ----------
+    joints : (N, J) predicted joint positions.
+    torque : (N, J) predicted motor torques at the gearbox output, or None.
+    compliance : (N, J) d(stretch)/d(tension) at each sample (rad/(N m), m/N); ones for generic data
+        (candidate amplitudes are then in joint units).
+    tension : (N, J) predicted cable tension (joint units), or None.
+    stretch : (N, J) predicted cable stretch, zeros for generic data.
+    gravity : (N, J) gravity holding load of the links with the payload (N m, N), or None.
+    cable_side : (N, J) cable-side joint positions A u (or the reported joints).
+    torque_map : (J, J) maps joint-side tension changes to gearbox-output motor torques, or None.
+    """
+
+    joints: np.ndarray
+    torque: np.ndarray | None
+    compliance: np.ndarray
+    tension: np.ndarray | None
+    stretch: np.ndarray
+    gravity: np.ndarray | None
+    cable_side: np.ndarray
+    torque_map: np.ndarray | None
+
+
+@dataclass(frozen=True, eq=False)
+class RavenModel:
+    """The cable model of a RAVEN-II parameter set plus the session's registration offsets.
+
+    ``offsets`` (3,) are added to every predicted joint; ``homing_offsets`` maps a homing count to
+    extra offsets of the samples recorded after that homing.
+    """
+
+    params: RavenParameters
+    offsets: np.ndarray
+    homing_offsets: dict | None = None
+
+    @property
+    def enabled_effects(self) -> tuple[str, ...]:
+        names = self.params.enabled_effects
+        return names + (("homing_offset",) if self.homing_offsets else ())
+
+    def with_effect(self, effect) -> "RavenModel":
+        """The model with ``effect`` (an :class:`~simulation.effects.Effect`) added or replaced."""
+        return RavenModel(self.params.with_effect(effect), self.offsets, self.homing_offsets)
+
+    def with_offsets(self, offsets) -> "RavenModel":
+        return RavenModel(self.params, np.asarray(offsets, dtype=float), self.homing_offsets)
+
+    def with_homing_offsets(self, homing_offsets: dict) -> "RavenModel":
+        return RavenModel(self.params, self.offsets, homing_offsets)
+
+    def replay(self, signals: MeasuredSignals, robot=None) -> ReplayState:
+        from kinematics import RavenII
+
+        if signals.kind != "raven":
+            raise ValueError("a RAVEN-II model needs RAVEN-II signals (motor positions and torques)")
+        p = self.params
+        c = p.constants
+        robot = robot or RavenII(signals.arm, check_limits=False)
+        coupling = p.effect("coupling")
+        delta = coupling.delta if coupling.enabled else np.zeros(3)
+        a = coupling_matrix(*(np.asarray(c.cable_coupling) + delta))
+        u = signals.drive
+        cable = u @ a.T
+        if p.is_enabled("capstan_runout"):
+            cable = cable + p.effect("capstan_runout").amplitude * np.sin(u * c.transmission_ratio[:3] / c.gearbox[:3])
+        side = cable.copy()
+        if p.is_enabled("backlash"):
+            half = p.effect("backlash").half_width
+            side = np.column_stack([play_series(np.ascontiguousarray(cable[:, i]), half[i]) for i in range(3)])
+
+        velocity = signals.velocity
+        gravity, inertial = signals.link_loads(robot)
+        load = inertial.copy()
+        if p.is_enabled("gravity_stretch"):
+            load = load + gravity * p.effect("gravity_stretch").load_scale
+        if p.is_enabled("viscous_friction"):
+            load = load + p.effect("viscous_friction").coefficient * velocity
+        dry = p.effect("coulomb_friction").force if p.is_enabled("coulomb_friction") else np.zeros(3)
+
+        creep = np.zeros_like(u)
+        softening = np.ones_like(u)
+        if p.is_enabled("drift"):
+            d = p.effect("drift")
+            dose = d.time_scale / 3600.0 * (signals.travel + d.payload_gain * signals.loaded_travel) / d.reference_speed
+            creep = d.creep_rate * dose
+            softening = 1.0 + d.stiffness_loss * dose
+
+        base = side - creep
+        first = signals.truth[0] - self.offsets
+        if p.is_enabled("cable_stretch"):
+            law = p.effect("cable_stretch")
+            hyst = p.effect("hysteresis")
+            k_h = hyst.stiffness if hyst.enabled else np.zeros(3)
+            beta = hyst.beta if hyst.enabled else np.ones(3)
+            gamma = hyst.gamma if hyst.enabled else np.ones(3)
+            link = np.empty_like(u)
+            z = np.empty_like(u)
+            for i in range(3):
+                link[:, i], z[:, i] = cable_link_series(
+                    np.ascontiguousarray(base[:, i]), np.ascontiguousarray(load[:, i]), dry[i],
+                    np.ascontiguousarray(softening[:, i]), law.stiffness[i], law.hardening[i], k_h[i],
+                    beta[i], gamma[i], signals.time, first[i])
+            stretch = base - link
+            tension = np.column_stack([law.stiffness[i] * law.hardening[i] * np.sinh(stretch[:, i] / law.hardening[i])
+                                       for i in range(3)]) / softening + k_h * z
+            compliance = softening / (law.stiffness * np.cosh(stretch / law.hardening))
+        else:
+            # rigid cable: the link rides on the capstans, friction only loads the motors
+            link = base
+            stretch = np.zeros_like(u)
+            tension = load + dry * np.sign(velocity)
+            compliance = np.zeros_like(u)
+
+        joints = link + self.offsets
+        if self.homing_offsets:
+            for count, extra in self.homing_offsets.items():
+                joints[signals.homing == count] += extra
+
+        ratio = c.transmission_ratio[:3]
+        gear = c.gearbox[:3]
+        inertia = c.motor_inertia[:3] * ratio ** 2
+        damping = c.motor_damping[:3] * ratio ** 2
+        motor_side = tension @ a + inertia * signals.drive_acceleration + damping * signals.drive_velocity
+        torque = motor_side * gear / ratio
+        torque_map = a.T * (gear / ratio)[:, None]
+        return ReplayState(joints=joints, torque=torque, compliance=compliance, tension=tension, stretch=stretch,
+                           gravity=gravity, cable_side=cable, torque_map=torque_map)

@@ -1,0 +1,243 @@
+"""The measured signals the discrepancy workflow replays a model against.
+
+Two kinds of data reach the workflow. A RAVEN-II log (simulated or read from bags) has motor
+positions, commanded motor torques and ground-truth joints, so the model is the cable model
+driven by the motors. A generic log, such as the dVRK data, has only the joint positions the
+controller reports and the measured ones, so the nominal model is "measured = reported".
+:class:`MeasuredSignals` holds either, in SI units, with the derived signals every candidate
+effect needs (velocities, accelerations, cumulative motion) computed once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+
+RAVEN_JOINTS = ("shoulder", "elbow", "insertion")
+RAVEN_UNITS = ("rad", "rad", "m")
+
+
+def _derivative(values: np.ndarray, time: np.ndarray) -> np.ndarray:
+    """Time derivative of each column, second-order accurate on uneven samples."""
+    return np.gradient(values, time, axis=0, edge_order=1)
+
+
+def _smooth(values: np.ndarray, width: int) -> np.ndarray:
+    """Centred moving average over ``width`` samples (edges shrink the window)."""
+    if width <= 1:
+        return values
+    kernel = np.ones(width) / width
+    padded = np.pad(values, ((width // 2, width - 1 - width // 2), (0, 0)), mode="edge")
+    return np.column_stack([np.convolve(padded[:, j], kernel, mode="valid") for j in range(values.shape[1])])
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredSignals:
+    """Time-ordered measurements of one or more joints, SI units.
+
+    Attributes
+    ----------
+    time : (N,) s, strictly increasing.
+    truth : (N, J) measured joint positions (the ground truth).
+    reported : (N, J) joint positions the robot reports (uncorrected).
+    drive : (N, J) the transmission's input in joint units: RAVEN-II motor coordinates
+        ``motor angle / transmission ratio`` (before the cable coupling), else the reported joints.
+    torque : (N, J) commanded motor torques at the gearbox output (N m), or None.
+    payload_kg : (N,) payload at the tool tip.
+    homing : (N,) homing count of each sample.
+    joint_names, units : per joint.
+    kind : "raven" (motor-side data and a cable model) or "generic".
+    arm : "left" or "right" for RAVEN-II data.
+    tool_joints : (N, 3) reported tool joints J3..J5 (rad) for the kinematics, RAVEN-II only.
+    """
+
+    time: np.ndarray
+    truth: np.ndarray
+    reported: np.ndarray
+    drive: np.ndarray
+    torque: np.ndarray | None
+    payload_kg: np.ndarray
+    homing: np.ndarray
+    joint_names: tuple[str, ...]
+    units: tuple[str, ...]
+    kind: str = "generic"
+    arm: str = "left"
+    tool_joints: np.ndarray | None = None
+    smoothing: int = field(default=5)
+    travel: np.ndarray | None = None
+    loaded_travel: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = self.time.shape[0]
+        if n < 20:
+            raise ValueError(f"the discrepancy workflow needs at least 20 samples, got {n}")
+        if np.any(np.diff(self.time) <= 0):
+            bad = int(np.argmax(np.diff(self.time) <= 0)) + 1
+            raise ValueError(f"time must increase strictly; it does not at sample {bad}")
+        for name in ("truth", "reported", "drive"):
+            value = getattr(self, name)
+            if value.shape != (n, len(self.joint_names)):
+                raise ValueError(f"{name} must have shape {(n, len(self.joint_names))}, got {value.shape}")
+            if not np.all(np.isfinite(value)):
+                bad = int(np.argmax(~np.isfinite(value).all(axis=1)))
+                raise ValueError(f"{name} is not finite at sample {bad}")
+        if self.torque is not None and (self.torque.shape != self.truth.shape or not np.all(np.isfinite(self.torque))):
+            raise ValueError("torque must be finite with the shape of truth")
+        if self.kind not in ("raven", "generic"):
+            raise ValueError(f"kind must be 'raven' or 'generic', got {self.kind!r}")
+        if self.travel is None:
+            # accumulated once over the whole record, so a selection keeps the session's history
+            speed = np.abs(self.velocity)
+            object.__setattr__(self, "travel", _accumulate(speed, self.time))
+            object.__setattr__(self, "loaded_travel", _accumulate(speed * self.payload_kg[:, None], self.time))
+
+    def __len__(self) -> int:
+        return self.time.shape[0]
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_names)
+
+    # ---- derived signals (cheap, recomputed on demand) ---------------------------------------
+
+    @cached_property
+    def velocity(self) -> np.ndarray:
+        """Joint velocity from the measured positions, lightly smoothed (rad/s, m/s)."""
+        return _derivative(_smooth(self.truth, self.smoothing), self.time)
+
+    @cached_property
+    def acceleration(self) -> np.ndarray:
+        return _derivative(self.velocity, self.time)
+
+    @cached_property
+    def drive_velocity(self) -> np.ndarray:
+        return _derivative(_smooth(self.drive, self.smoothing), self.time)
+
+    @cached_property
+    def drive_acceleration(self) -> np.ndarray:
+        return _derivative(self.drive_velocity, self.time)
+
+    def cumulative_motion(self, per_kg: float = 0.0) -> np.ndarray:
+        """Accumulated joint travel since the start of the record (rad, rad, m), optionally load-weighted.
+
+        The operating-time signal of cable fatigue: a joint that does not move does not age.
+        """
+        return self.travel + per_kg * self.loaded_travel
+
+    def link_loads(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """Gravity holding loads and inertial loads ``M(q) q''`` of the links (RAVEN-II; cached).
+
+        Computed once per signal set from the measured joints, payload and tool joints with the
+        kinematics model, since every replay of every candidate needs them.
+        """
+        cache = self.__dict__.setdefault("_loads", {})
+        key = (robot.arm, tuple(np.round(robot.gravity, 12)))
+        if key not in cache:
+            q6 = np.column_stack([self.truth, self.tool_joints])
+            gravity = np.zeros_like(self.truth)
+            inertial = np.zeros_like(self.truth)
+            for payload in np.unique(self.payload_kg):
+                rows = self.payload_kg == payload
+                gravity[rows] = robot.gravity_torques(q6[rows], payload_kg=float(payload))
+                mass = robot.mass_matrix(q6[rows], payload_kg=float(payload))
+                inertial[rows] = np.einsum("nij,nj->ni", mass, self.acceleration[rows])
+            cache[key] = (gravity, inertial)
+        return cache[key]
+
+    def select(self, mask: np.ndarray) -> "MeasuredSignals":
+        """The samples where ``mask`` holds (keep blocks contiguous: derivatives are recomputed)."""
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != self.time.shape:
+            raise ValueError(f"mask must have shape {self.time.shape}")
+
+        def pick(value):
+            return None if value is None else value[mask]
+
+        return replace(
+            self,
+            time=self.time[mask],
+            truth=self.truth[mask],
+            reported=self.reported[mask],
+            drive=self.drive[mask],
+            torque=pick(self.torque),
+            payload_kg=self.payload_kg[mask],
+            homing=self.homing[mask],
+            tool_joints=pick(self.tool_joints),
+            travel=self.travel[mask],
+            loaded_travel=self.loaded_travel[mask],
+        )
+
+    # ---- construction -------------------------------------------------------------------------
+
+    @classmethod
+    def from_dataset(cls, dataset, constants=None) -> "MeasuredSignals":
+        """Signals of a RAVEN-II :class:`~simulation.dataset.CalibrationDataset` (simulated or from bags)."""
+        from simulation.constants import RavenConstants
+
+        c = constants or RavenConstants(arm=dataset.arm)
+        table = dataset.table
+        names = ("shoulder", "elbow", "z_ins")
+        required = [f"mpos.{n}" for n in names] + [f"tau.{n}" for n in names]
+        missing = [col for col in required if col not in table.columns]
+        if missing:
+            raise ValueError(f"RAVEN-II signals need the motor columns {missing} (the 'all' feature group)")
+        mpos = table[[f"mpos.{n}" for n in names]].to_numpy(float)
+        labels = dataset.labels
+        payload = labels["payload_kg"].to_numpy(float) if "payload_kg" in labels else np.zeros(len(table))
+        homing = labels["homing_count"].to_numpy(int) if "homing_count" in labels else np.zeros(len(table), int)
+        tool = table[["jpos.tool_rot", "jpos.wrist", "jpos.grasp1", "jpos.grasp2"]].to_numpy(float)
+        return cls(
+            time=dataset.time.astype(float),
+            truth=dataset.targets.astype(float),
+            reported=dataset.raw_joints.astype(float),
+            drive=mpos / c.transmission_ratio[:3],
+            torque=table[[f"tau.{n}" for n in names]].to_numpy(float),
+            payload_kg=payload,
+            homing=homing,
+            joint_names=RAVEN_JOINTS,
+            units=RAVEN_UNITS,
+            kind="raven",
+            arm=dataset.arm,
+            tool_joints=np.column_stack([tool[:, 0], tool[:, 1], 0.5 * (tool[:, 3] - tool[:, 2])]),
+        )
+
+    @classmethod
+    def generic(cls, time, reported, truth, joint_names, units) -> "MeasuredSignals":
+        """Signals of a robot whose nominal model is "measured = reported" (e.g. the dVRK data)."""
+        reported = np.asarray(reported, dtype=float)
+        n = reported.shape[0]
+        return cls(
+            time=np.asarray(time, dtype=float),
+            truth=np.asarray(truth, dtype=float),
+            reported=reported,
+            drive=reported,
+            torque=None,
+            payload_kg=np.zeros(n),
+            homing=np.zeros(n, dtype=int),
+            joint_names=tuple(joint_names),
+            units=tuple(units),
+            kind="generic",
+            smoothing=1,
+        )
+
+
+def _accumulate(rate: np.ndarray, time: np.ndarray) -> np.ndarray:
+    steps = 0.5 * (rate[1:] + rate[:-1]) * np.diff(time)[:, None]
+    return np.vstack([np.zeros((1, rate.shape[1])), np.cumsum(steps, axis=0)])
+
+
+def report_scale(units) -> np.ndarray:
+    """Factors to degrees (rad) and millimetres (m), the paper's reporting units."""
+    return np.array([180.0 / np.pi if u == "rad" else 1000.0 for u in units])
+
+
+def pooled_rmse(residual: np.ndarray, units) -> float:
+    """RMSE over joints and samples with rad in degrees and m in millimetres (the paper's weighting)."""
+    scaled = residual * report_scale(units)
+    return float(np.sqrt(np.mean(np.square(scaled))))
+
+
+def joint_rmse(residual: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.mean(np.square(residual), axis=0))

@@ -1,0 +1,387 @@
+"""The model-discrepancy workflow: replay, localize, name, add, show; repeat.
+
+Given measured data split into a fit part, a validation part and a held-out part, and a starting
+model identified from the measured data:
+
+1. Replay the model along the measured inputs; the residual is measured minus replayed, joints
+   and motor torques.
+2. Localize the residual (:mod:`simulation.discrepancy.localize`).
+3. Name: fit each candidate effect of the library to the residual (casadi), score it on the
+   validation part by the weighted residual plus a BIC complexity penalty, and name the best if
+   it shrinks the validation gap enough; otherwise stop, and flag the residual "unexplained" when
+   it is still above the floor the data's own noise sets.
+4. Add the named effect, with its fitted parameters, to the model and replay again.
+5. Show the gap on the held-out part before and after; repeat from 1.
+
+Candidates are first screened by a coarse scan of their parameters (cheap replays); the most
+promising are fitted in full. Effects that look alike in the joints (backlash, dry friction,
+hysteresis) differ in the motor torques they imply and in how they follow the motion history,
+and the weighted two-channel residual is what tells them apart.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .candidates import Candidate, library
+from .generic import NominalModel
+from .replay import RavenModel
+from .fitting import ChannelWeights, Residual, fit_candidate, residual
+from .signals import MeasuredSignals, joint_rmse, pooled_rmse, report_scale
+
+
+@dataclass(frozen=True)
+class WorkflowSettings:
+    """Decision thresholds of the workflow (documented defaults, all tunable).
+
+    Attributes
+    ----------
+    min_shrink : a candidate is named only if it cuts the validation gap (pooled RMSE, degrees and
+        millimetres) by at least this fraction, and the gap on the fit part too: an effect that is
+        there helps both where it was fitted and where it is checked, while a look-alike of an
+        effect the library lacks may help on the validation part by chance only.
+    min_improvement : ... and by at least this much in absolute terms (deg/mm pooled): below it
+        the gap is at the level of the data's own noise.
+    unexplained_floor : a final validation gap above this (deg/mm pooled) is flagged unexplained
+        when no candidate helps any more; set from the ground-truth encoders' resolution and the
+        replay's own accuracy on data with nothing missing (about 0.01 on the virtual RAVEN-II).
+    max_iterations : most effects named in one run.
+    screen_top : how many screened candidates are fitted in full each iteration.
+    bic_weight : multiplies the complexity penalty k log n.
+    refit_with : effects of the model refitted together with each candidate outside the identifier's
+        reach: the joint-side friction, which an identification without the missing effect uses to
+        mimic it (backlash and hysteresis also lag the joint behind the motion).
+    backfit_rounds : with a base identifier, how many times a candidate outside the identifier's
+        reach is fitted and the base re-identified on the joints with the candidate's share
+        removed (the base otherwise keeps the part of the missing effect it absorbed).
+    """
+
+    min_shrink: float = 0.10
+    min_improvement: float = 0.004
+    unexplained_floor: float = 0.025
+    max_iterations: int = 4
+    screen_top: int = 2
+    bic_weight: float = 1.0
+    refit_with: tuple[str, ...] = ()
+    backfit_rounds: int = 1
+
+
+@dataclass(frozen=True)
+class CandidateScore:
+    """How one candidate did in one iteration."""
+
+    name: str
+    screened_chi_square: float
+    fitted: bool
+    values: dict
+    validation_gap: float
+    bic: float
+    fit_gap: float = np.nan
+
+
+@dataclass(frozen=True)
+class Iteration:
+    """One pass of steps 1-4."""
+
+    gap_before: float
+    scores: tuple[CandidateScore, ...]
+    named: str | None
+
+
+@dataclass(frozen=True)
+class DiscrepancyResult:
+    """Everything the workflow found.
+
+    ``gap_before``/``gap_after`` are held-out RMSE per joint in SI units (rad, rad, m for RAVEN-II);
+    ``shrink`` is ``1 - after/before`` on the pooled RMSE with rad in degrees and m in millimetres.
+    """
+
+    named_effects: tuple[str, ...]
+    unexplained: bool
+    gap_before: np.ndarray
+    gap_after: np.ndarray
+    shrink: float
+    fitted_parameters: dict
+    iterations: tuple[Iteration, ...]
+    model_before: object
+    model_after: object
+    units: tuple[str, ...]
+    joint_names: tuple[str, ...]
+    residual_before: Residual = field(repr=False)
+    residual_after: Residual = field(repr=False)
+
+
+def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights: ChannelWeights,
+            robot) -> tuple[float, np.ndarray]:
+    """Best weighted residual over a coarse scan of the candidate's parameters, one at a time, and where."""
+    lower, upper, scale, initial = candidate.bounds()
+    theta = initial.copy()
+
+    def chi(values):
+        try:
+            return residual(candidate.apply(model, values), signals, robot, mask=mask).chi_square(weights)
+        except ValueError:
+            return np.inf
+
+    best = chi(theta)
+    for i in range(theta.size):
+        trial_values = [scale[i] * f for f in (0.1, 0.3, 1.0, 3.0, 10.0)]
+        if lower[i] < 0:
+            trial_values += [-v for v in trial_values]
+        for value in trial_values:
+            trial = theta.copy()
+            trial[i] = np.clip(value, lower[i], upper[i])
+            value_chi = chi(trial)
+            if value_chi < best:
+                best, theta = value_chi, trial
+    return float(best), theta
+
+
+def _validation_gap(res: Residual, units) -> float:
+    return pooled_rmse(res.joints, units)
+
+
+@dataclass(frozen=True)
+class Split:
+    """Disjoint boolean masks of one record: where to fit, where to choose, where to report."""
+
+    fit: np.ndarray
+    validation: np.ndarray
+    held_out: np.ndarray
+
+    @classmethod
+    def by_time(cls, signals: MeasuredSignals, fractions=(0.5, 0.25, 0.25)) -> "Split":
+        """Consecutive blocks of the record in time order (fit first, held-out last)."""
+        edges = np.cumsum(fractions) / np.sum(fractions)
+        position = np.arange(len(signals)) / len(signals)
+        return cls(fit=position < edges[0], validation=(position >= edges[0]) & (position < edges[1]),
+                   held_out=position >= edges[1])
+
+    def __post_init__(self):
+        total = self.fit.astype(int) + self.validation.astype(int) + self.held_out.astype(int)
+        if np.any(total > 1):
+            raise ValueError("fit, validation and held-out parts must not overlap")
+        for name in ("fit", "validation", "held_out"):
+            if getattr(self, name).sum() < 10:
+                raise ValueError(f"the {name} part has fewer than 10 samples")
+
+
+@dataclass(frozen=True)
+class BaseIdentifier:
+    """How the workflow re-identifies the starting structure (step 0) when effects are added.
+
+    ``identify(structure, correction)`` returns a model of the effects ``structure`` identified on
+    the fit part, with ``correction`` (N, J) subtracted from the measured joints first (None: no
+    correction); ``fittable`` are the effects it can identify.
+    """
+
+    identify: Callable
+    fittable: tuple[str, ...]
+    structure: tuple[str, ...]
+
+
+def current_values_of(model, candidate: Candidate) -> np.ndarray:
+    """The model's present values of a candidate's parameters, flattened like the candidate's."""
+    if isinstance(model, NominalModel):
+        values = model.effects[candidate.name]
+        return np.concatenate([np.asarray(values[b.name], dtype=float).ravel() for b in candidate.blocks])
+    if candidate.name == "homing_offset":
+        return np.concatenate([np.asarray(v, dtype=float) for v in model.homing_offsets.values()])
+    effect = model.params.effect(candidate.name)
+    parts = []
+    for block in candidate.blocks:
+        if candidate.name == "hysteresis" and block.name == "width":
+            parts.append(1.0 / (effect.beta + effect.gamma))
+        else:
+            parts.append(np.asarray(getattr(effect, block.name), dtype=float))
+    return np.concatenate(parts)
+
+
+def current_values_of_all(model, candidates) -> np.ndarray:
+    return np.concatenate([current_values_of(model, c) for c in candidates])
+
+
+def _joint_candidate(parts, model) -> Candidate:
+    """Several candidates' parameters as one, so casadi fits them together."""
+    from .candidates import ParameterBlock
+
+    sizes = [c.n_parameters for c in parts]
+    bounds = [c.bounds() for c in parts]
+    current = current_values_of_all(model, parts)
+    lower = np.concatenate([b[0] for b in bounds])
+    upper = np.concatenate([b[1] for b in bounds])
+    scale = np.where(np.abs(current) > 0, np.abs(current), np.concatenate([b[2] for b in bounds]))
+
+    def build(m, values):
+        theta, start = values["all"], 0
+        for candidate, size in zip(parts, sizes):
+            m = candidate.apply(m, theta[start:start + size])
+            start += size
+        return m
+
+    block = ParameterBlock("all", current.size, lower, upper, scale, current)
+    return Candidate("_and_".join(c.name for c in parts), (block,), build, lambda m, s, n: (True, ""))
+
+
+def _without(model, names):
+    """The model with the named (added) effects removed."""
+    if isinstance(model, RavenModel):
+        params = model.params.without(*[n for n in names if n != "homing_offset"])
+        return RavenModel(params, model.offsets, None if "homing_offset" in names else model.homing_offsets)
+    return NominalModel(offsets=model.offsets, effects={k: v for k, v in model.effects.items() if k not in names})
+
+
+def _transplant(source, target, names):
+    """``target`` with the effects ``names`` (and their parameters) taken from ``source``."""
+    if isinstance(target, RavenModel):
+        model = target
+        for name in names:
+            if name == "homing_offset":
+                model = model.with_homing_offsets(source.homing_offsets)
+            else:
+                model = model.with_effect(source.params.effect(name))
+        return model
+    effects = dict(target.effects)
+    effects.update({n: source.effects[n] for n in names})
+    return NominalModel(offsets=target.offsets, effects=effects)
+
+
+def run_workflow(model, signals: MeasuredSignals, split: Split, settings: WorkflowSettings = WorkflowSettings(),
+                 candidates: list[Candidate] | None = None, robot=None, exclude: tuple[str, ...] = (),
+                 base: BaseIdentifier | None = None) -> DiscrepancyResult:
+    """Steps 1-5 from a starting ``model`` (a :class:`~simulation.discrepancy.replay.RavenModel` or
+    :class:`~simulation.discrepancy.generic.NominalModel`) identified from the measured data.
+
+    The model is always replayed along the whole record (``signals``); it is fitted on
+    ``split.fit``, candidates are chosen on ``split.validation`` and the gap is reported on
+    ``split.held_out``. Offsets are fitted on the fit part and carried to the others.
+
+    With ``base`` (the identification that produced ``model``), a candidate the identification
+    can fit is tried by re-identifying the extended structure, and any other candidate is
+    backfitted: fitted on top of the model, then the structure re-identified on the joints with the
+    candidate's share removed, then the candidate fitted again.
+    """
+    if robot is None and signals.kind == "raven":
+        from kinematics import RavenII
+
+        robot = RavenII(signals.arm, check_limits=False)
+    candidates = [c for c in (candidates if candidates is not None else library(signals)) if c.name not in exclude]
+    units = signals.units
+
+    def with_fitted_offsets(m):
+        return m.with_offsets(m.offsets + residual(m, signals, robot, mask=split.fit).joint_offsets)
+
+    def on(m, mask):
+        return residual(m, signals, robot, offsets=np.zeros(signals.n_joints), mask=mask)
+
+    model = with_fitted_offsets(model)
+    has_torque = on(model, split.fit).torque is not None
+    n_validation = int(split.validation.sum()) * signals.n_joints * (2 if has_torque else 1)
+    initial_model = model
+
+    library_by_name = {c.name: c for c in library(signals)}
+    named: list[str] = []
+    fitted_parameters: dict = {}
+    iterations: list[Iteration] = []
+    structure = tuple(base.structure) if base is not None else ()
+
+    def extras_of(m):
+        return [n for n in m.enabled_effects if n not in structure]
+
+    def share(m, names):
+        """What the effects ``names`` add to the replayed joints over the whole record."""
+        return m.replay(signals, robot).joints - _without(m, names).replay(signals, robot).joints
+
+    def rebase(m, new_structure, extras):
+        correction = share(m, extras) if extras else None
+        return with_fitted_offsets(_transplant(m, base.identify(new_structure, correction), extras))
+
+    def trial_model(candidate, weights, scanned):
+        nonlocal structure
+        if base is not None and candidate.name in base.fittable:
+            trial = rebase(model, structure + (candidate.name,), extras_of(model))
+            return trial, current_values_of(trial, candidate)
+        theta, trial, _ = fit_candidate(candidate, model, signals, weights, robot, mask=split.fit, initial=scanned,
+                                        starts=1, max_iter=30)
+        trial = with_fitted_offsets(trial)
+        # the model's friction may have stood in for the missing effect: fit them together
+        partners = [c for c in library_by_name.values() if c.name in settings.refit_with and c.name in trial.enabled_effects]
+        if partners:
+            joint = _joint_candidate([candidate] + partners, trial)
+            values, trial, _ = fit_candidate(joint, trial, signals, weights, robot, mask=split.fit,
+                                             initial=current_values_of_all(trial, [candidate] + partners),
+                                             starts=1, max_iter=30)
+            trial = with_fitted_offsets(trial)
+            theta = values[:candidate.n_parameters]
+        if base is not None:
+            for _ in range(settings.backfit_rounds):
+                trial = rebase(trial, structure, extras_of(trial))
+                theta, trial, _ = fit_candidate(candidate, trial, signals, weights, robot, mask=split.fit,
+                                                initial=theta, starts=1, max_iter=30)
+                trial = with_fitted_offsets(trial)
+        return trial, theta
+    for _ in range(settings.max_iterations):
+        # each channel weighs by its current misfit, so what is left after an effect is named counts
+        current_fit = on(model, split.fit)
+        weights = ChannelWeights.from_residual(current_fit.joints, current_fit.torque, 1e-3 / report_scale(units))
+        current_val = on(model, split.validation)
+        current_gap = _validation_gap(current_val, units)
+        current_fit_gap = _validation_gap(current_fit, units)
+        current_bic = current_val.chi_square(weights)
+        applicable = [c for c in candidates if c.applies(model, signals, c.name)[0]]
+        screened = sorted(((*_screen(c, model, signals, split.fit, weights, robot), c) for c in applicable),
+                          key=lambda t: t[0])
+        scores = []
+        best = None
+        for rank, (chi, scanned, candidate) in enumerate(screened):
+            if rank >= settings.screen_top:
+                scores.append(CandidateScore(candidate.name, chi, False, {}, np.nan, np.nan))
+                continue
+            trial, theta = trial_model(candidate, weights, scanned)
+            val = on(trial, split.validation)
+            gap = _validation_gap(val, units)
+            fit_gap = _validation_gap(on(trial, split.fit), units)
+            bic = val.chi_square(weights) + settings.bic_weight * candidate.n_parameters * np.log(n_validation)
+            values = {k: np.asarray(v).tolist() for k, v in candidate.unpack(np.asarray(theta, dtype=float)).items()}
+            scores.append(CandidateScore(candidate.name, chi, True, values, gap, bic, fit_gap))
+            if best is None or bic < best[0]:
+                best = (bic, gap, fit_gap, candidate, trial, values)
+        accepted = None
+        if best is not None:
+            bic, gap, fit_gap, candidate, trial, values = best
+            if (bic < current_bic and gap <= (1 - settings.min_shrink) * current_gap
+                    and fit_gap <= (1 - settings.min_shrink) * current_fit_gap
+                    and current_gap - gap >= settings.min_improvement):
+                accepted = candidate.name
+                model = trial
+                if base is not None and candidate.name in base.fittable:
+                    structure = structure + (candidate.name,)
+                named.append(candidate.name)
+                fitted_parameters[candidate.name] = values
+        iterations.append(Iteration(gap_before=current_gap, scores=tuple(scores), named=accepted))
+        if accepted is None:
+            break
+
+    unexplained = bool(_validation_gap(on(model, split.validation), units) > settings.unexplained_floor)
+    before = on(initial_model, split.held_out)
+    after = on(model, split.held_out)
+    pooled_before = pooled_rmse(before.joints, units)
+    pooled_after = pooled_rmse(after.joints, units)
+    return DiscrepancyResult(
+        named_effects=tuple(named),
+        unexplained=unexplained,
+        gap_before=joint_rmse(before.joints),
+        gap_after=joint_rmse(after.joints),
+        shrink=float(1.0 - pooled_after / pooled_before) if pooled_before > 0 else 0.0,
+        fitted_parameters=fitted_parameters,
+        iterations=tuple(iterations),
+        model_before=initial_model,
+        model_after=model,
+        units=units,
+        joint_names=signals.joint_names,
+        residual_before=before,
+        residual_after=after,
+    )
