@@ -123,12 +123,14 @@ def long_operation(robot: VirtualRaven, kind: str = "unloaded", hours: float = 6
     for i in range(n_blocks):
         duration = min(block, remaining)
         if kind == "idle":
-            parts.append(robot.hold(duration, segment=kind))
+            part = robot.hold(duration, segment=kind)
         else:
-            parts.append(record_random_test(robot, duration, seeds[i], segment=kind))
+            part = record_random_test(robot, duration, seeds[i], segment=kind)
+        # keep only the operating samples of each block: the whole log is then copied once, not thrice
+        parts.append(part.operating())
         remaining -= duration
     robot.set_payload(0.0)
-    return Recording.concatenate(parts).operating()
+    return Recording.concatenate(parts)
 
 
 def _slice_trajectory(trajectory, start: int, stop: int):

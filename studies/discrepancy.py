@@ -180,8 +180,8 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
     iteration_rows = []
     for k, it in enumerate(result.iterations):
         for s in it.scores:
-            iteration_rows.append([k + 1, s.name, "yes" if s.fitted else "screened only", s.validation_gap, s.bic,
-                                   "named" if it.named == s.name else ""])
+            iteration_rows.append([str(k + 1), s.name, "yes" if s.fitted else "screened only", s.fit_gap,
+                                   s.validation_gap, s.bic, "named" if it.named == s.name else ""])
     sections = [
         f"# Model discrepancy: {source.get('description', '')}",
         "",
@@ -194,9 +194,10 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         "",
         markdown_table(["joint", "before", "after"], rows),
         "",
-        "## Candidates per iteration (validation gap: pooled RMSE, deg and mm)",
+        "## Candidates per iteration (gaps: pooled RMSE, deg and mm)",
         "",
-        markdown_table(["iteration", "candidate", "fitted", "validation gap", "BIC", ""], iteration_rows, digits=4),
+        markdown_table(["iteration", "candidate", "fitted", "fit-part gap", "validation gap", "BIC", ""], iteration_rows,
+                       digits=4),
         "",
         "## Where the starting model's residual is (spread of bin means, deg or mm)",
         "",
