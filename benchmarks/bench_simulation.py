@@ -15,8 +15,8 @@ import argparse
 import resource
 import time
 
-from simulation.robot import VirtualRaven
-from simulation.scenarios import long_operation, powered_on
+from simulation.engine.robot import VirtualRaven
+from simulation.engine.scenarios import long_operation, powered_on
 from simulation.trajectories import random_sinusoidal
 
 

@@ -29,13 +29,13 @@ import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from estimators import FixedOffsetCalibrator, LinearCalibrator, UKFJointEstimator
-from estimators.ukf_noise import encoder_noise
-from estimators.ukf_process import ProcessModel
-from estimators.ukf_run import initial_state
+from estimators.ukf.noise import encoder_noise
+from estimators.ukf.process import ProcessModel
+from estimators.ukf.run import initial_state
 from kinematics import RavenII
 from simulation.identification import MotorLog, PoorlyIdentifiedWarning, identify
-from simulation.recording import recording_to_dataset
-from simulation.scenarios import long_operation, paper_protocol, powered_on, record_calibration, record_random_test
+from simulation.recordings.recording import recording_to_dataset
+from simulation.engine.scenarios import long_operation, paper_protocol, powered_on, record_calibration, record_random_test
 
 REPORT = np.array([180.0 / np.pi, 180.0 / np.pi, 1000.0])
 

@@ -38,8 +38,8 @@ __all__ = [
     "save_calibrator",
 ]
 
-_UKF_NAMES = {"UKFJointEstimator": "estimators.ukf", "ProcessNoise": "estimators.ukf_noise",
-              "JointEstimates": "estimators.ukf_run"}
+_UKF_NAMES = {"UKFJointEstimator": "estimators.ukf.estimator", "ProcessNoise": "estimators.ukf.noise",
+              "JointEstimates": "estimators.ukf.run"}
 
 
 def __getattr__(name):

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
-from estimators import mlp
-from estimators.base import CalibratorBase
-from estimators.randomness import make_generator
+from estimators import _mlp as mlp
+from estimators._base import CalibratorBase
+from estimators._randomness import make_generator
 from estimators.realtime import MLPPredictor
-from estimators.standardization import Standardizer
-from estimators.validation import (
+from estimators._standardization import Standardizer
+from estimators._validation import (
     check_choice,
     check_layer_sizes,
     check_non_negative_float,
@@ -147,8 +147,8 @@ class DNNCalibrator(CalibratorBase):
             check_positive_int(self.n_threads, "n_threads")
 
     def _training_config(self):
-        from estimators.mlp_training import TrainingConfig
-        from estimators.training_loop import EarlyStopping
+        from estimators._mlp_training import TrainingConfig
+        from estimators._training_loop import EarlyStopping
 
         stopping = (EarlyStopping(float(self.validation_fraction), int(self.n_iter_no_change),
                                   float(self.tol)) if self.early_stopping else None)
@@ -162,7 +162,7 @@ class DNNCalibrator(CalibratorBase):
 
     def _fit_correction(self, X, correction):
         # torch is needed for training only: prediction and real-time export stay numpy-only.
-        from estimators.mlp_training import train_mlp
+        from estimators._mlp_training import train_mlp
 
         x_scaler, target_scaler = Standardizer.fit_inputs(X), Standardizer.fit_targets(correction)
         rng = make_generator(self.random_state)

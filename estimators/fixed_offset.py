@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimators.base import CalibratorBase
+from estimators._base import CalibratorBase
 from estimators.realtime import AffinePredictor
 
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from estimators import gaussian_process as gp
-from estimators.base import CalibratorBase
-from estimators.randomness import make_generator
+from estimators import _gaussian_process as gp
+from estimators._base import CalibratorBase
+from estimators._randomness import make_generator
 from estimators.realtime import KernelPredictor
-from estimators.standardization import Standardizer
-from estimators.validation import check_bounds, check_positive_int
+from estimators._standardization import Standardizer
+from estimators._validation import check_bounds, check_positive_int
 
 
 class GPRCalibrator(CalibratorBase):

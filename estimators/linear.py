@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from estimators.base import CalibratorBase
-from estimators.least_squares import fit_affine
+from estimators._base import CalibratorBase
+from estimators._least_squares import fit_affine
 from estimators.realtime import AffinePredictor
-from estimators.standardization import Standardizer
-from estimators.validation import check_non_negative_float
+from estimators._standardization import Standardizer
+from estimators._validation import check_non_negative_float
 
 
 class LinearCalibrator(CalibratorBase):
@@ -20,7 +20,7 @@ class LinearCalibrator(CalibratorBase):
     ----------
     raw_columns : None, int or sequence of int, default=None
         Columns of X holding the uncorrected value of each column of y; when given, the model
-        learns the error (see `estimators.base`).
+        learns the error (see `estimators._base`).
     alpha : float, default=0.0
         Ridge penalty on the weights of the standardized features (0: ordinary least squares,
         as in the paper).

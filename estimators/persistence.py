@@ -27,7 +27,7 @@ import numpy as np
 import sklearn
 from sklearn.utils.validation import check_is_fitted
 
-from estimators.base import CalibratorBase
+from estimators._base import CalibratorBase
 from estimators.dnn import DNNCalibrator
 from estimators.fixed_offset import FixedOffsetCalibrator
 from estimators.gpr import GPRCalibrator

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from estimators.base import CalibratorBase
-from estimators.least_squares import fit_affine
-from estimators.monomials import MonomialPlan
+from estimators._base import CalibratorBase
+from estimators._least_squares import fit_affine
+from estimators._monomials import MonomialPlan
 from estimators.realtime import MonomialPredictor
-from estimators.standardization import Standardizer
-from estimators.validation import check_non_negative_float, check_positive_int
+from estimators._standardization import Standardizer
+from estimators._validation import check_non_negative_float, check_positive_int
 
 
 class PolynomialCalibrator(CalibratorBase):

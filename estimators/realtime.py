@@ -182,7 +182,7 @@ class KernelPredictor:
 
 
 class ForestPredictor:
-    """Average of regression trees stored as flat node arrays (see `estimators.forest`).
+    """Average of regression trees stored as flat node arrays (see `estimators._forest`).
 
     Leaves point to themselves, so every tree is walked for the same number of steps, all trees
     at once. Inputs are rounded to float32 before the comparisons, as scikit-learn's trees do.

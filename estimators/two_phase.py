@@ -6,12 +6,12 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.ensemble import RandomForestRegressor
 
-from estimators.base import CalibratorBase
+from estimators._base import CalibratorBase
 from estimators.dnn import DNNCalibrator
-from estimators.forest import FlatForest
-from estimators.randomness import make_generator
+from estimators._forest import FlatForest
+from estimators._randomness import make_generator
 from estimators.realtime import ForestPredictor, SumPredictor
-from estimators.validation import check_positive_int
+from estimators._validation import check_positive_int
 
 _SEED_LIMIT = np.iinfo(np.int32).max
 
@@ -23,7 +23,7 @@ class TwoPhaseCalibrator(CalibratorBase):
     random forest that learned what the network still got wrong (phase 2). Here phase 1 is a
     `DNNCalibrator` trained on the correction (the error in error mode), phase 2 a
     scikit-learn `RandomForestRegressor` trained on the raw X against the phase-1 residual of
-    the training data. The forest is kept as flat numpy arrays (`estimators.forest`).
+    the training data. The forest is kept as flat numpy arrays (`estimators._forest`).
 
     Parameters
     ----------

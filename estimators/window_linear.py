@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimators.base import CalibratorBase
-from estimators.least_squares import fit_affine
+from estimators._base import CalibratorBase
+from estimators._least_squares import fit_affine
 from estimators.realtime import WindowAffinePredictor
-from estimators.standardization import Standardizer
-from estimators.validation import check_non_negative_float, check_positive_int
-from estimators.windows import stack_windows
+from estimators._standardization import Standardizer
+from estimators._validation import check_non_negative_float, check_positive_int
+from estimators._windows import stack_windows
 
 
 class WindowLinearCalibrator(CalibratorBase):
@@ -21,7 +21,7 @@ class WindowLinearCalibrator(CalibratorBase):
 
     The rows of X must be consecutive samples of one recording in time order: row t is
     predicted from rows t - window + 1 ... t, and the first window - 1 rows are padded by
-    repeating row 0 (see `estimators.windows`). Hence a prediction depends on the rows before
+    repeating row 0 (see `estimators._windows`). Hence a prediction depends on the rows before
     it, and predicting a subset or a shuffled X changes it, by design. For a servo loop,
     `to_realtime` returns a predictor that keeps the last `window` samples in a ring buffer
     (call its ``reset()`` at the start of a new recording).

@@ -4,17 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimators import lstm
-from estimators.base import CalibratorBase
-from estimators.randomness import make_generator
+from estimators import _lstm as lstm
+from estimators._base import CalibratorBase
+from estimators._randomness import make_generator
 from estimators.realtime import LSTMPredictor
-from estimators.standardization import Standardizer
-from estimators.validation import (
+from estimators._standardization import Standardizer
+from estimators._validation import (
     check_non_negative_float,
     check_open_interval,
     check_positive_int,
 )
-from estimators.windows import stack_windows
+from estimators._windows import stack_windows
 
 
 class WindowLSTMCalibrator(CalibratorBase):
@@ -26,7 +26,7 @@ class WindowLSTMCalibrator(CalibratorBase):
 
     The rows of X must be consecutive samples of one recording in time order: row t is
     predicted from rows t - window + 1 ... t, and the first window - 1 rows are padded by
-    repeating row 0 (see `estimators.windows`). Hence a prediction depends on the rows before
+    repeating row 0 (see `estimators._windows`). Hence a prediction depends on the rows before
     it, and predicting a subset or a shuffled X changes it, by design. `to_realtime` returns a
     predictor that keeps the last `window` samples in a ring buffer (call its ``reset()`` at the
     start of a new recording). Inputs and targets are standardized inside; training runs in
@@ -62,7 +62,7 @@ class WindowLSTMCalibrator(CalibratorBase):
 
     Attributes
     ----------
-    weights_ : estimators.lstm.LSTMWeights
+    weights_ : estimators._lstm.LSTMWeights
         Learned parameters (standardized units).
     x_mean_, x_scale_, target_mean_, target_scale_ : ndarray
         Standardization of inputs and of the learned correction;
@@ -105,8 +105,8 @@ class WindowLSTMCalibrator(CalibratorBase):
 
     def _fit_correction(self, X, correction):
         # torch is needed for training only: prediction and real-time export stay numpy-only.
-        from estimators.lstm_training import LSTMTrainingConfig, train_lstm
-        from estimators.training_loop import EarlyStopping
+        from estimators._lstm_training import LSTMTrainingConfig, train_lstm
+        from estimators._training_loop import EarlyStopping
 
         x_scaler, target_scaler = Standardizer.fit_inputs(X), Standardizer.fit_targets(correction)
         rng = make_generator(self.random_state)

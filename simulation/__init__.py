@@ -7,19 +7,19 @@ Quick start::
     runs.calibration.channel("jpos")       # what the robot reports (30 Hz)
     runs.calibration.truth                 # what the external joint encoders measure (100 Hz)
 
-Layers: :mod:`~simulation.constants` (controller facts), :mod:`~simulation.effects` (named
-physics), :mod:`~simulation.parameters` (an immutable parameter set), :mod:`~simulation.cable_model`
-(pure model functions shared with the estimators), :mod:`~simulation.engine` (the compiled loop),
-:mod:`~simulation.robot` (one arm), :mod:`~simulation.scenarios` (the paper's experiments),
-:mod:`~simulation.recording`, :mod:`~simulation.ravenstate`, :mod:`~simulation.dataset` and
-:mod:`~simulation.io` (what is recorded and how it is stored).
+Layers: :mod:`~simulation.model.constants` (controller facts), :mod:`~simulation.model.effects` (named
+physics), :mod:`~simulation.model.parameters` (an immutable parameter set), :mod:`~simulation.model.laws`
+(pure model functions shared with the estimators), :mod:`~simulation.engine.loop` (the compiled loop),
+:mod:`~simulation.engine.robot` (one arm), :mod:`~simulation.engine.scenarios` (the paper's experiments),
+:mod:`~simulation.recordings.recording`, :mod:`~simulation.recordings.ravenstate`, :mod:`~simulation.recordings.dataset` and
+:mod:`~simulation.recordings` (what is recorded and how it is stored).
 """
 
-from simulation.effects import EFFECT_NAMES, Effect, effect_type
-from simulation.parameters import RavenParameters
-from simulation.recording import Recording, recording_to_dataset
-from simulation.robot import Motion, VirtualRaven
-from simulation.scenarios import (
+from simulation.model.effects import EFFECT_NAMES, Effect, effect_type
+from simulation.model.parameters import RavenParameters
+from simulation.recordings.recording import Recording, recording_to_dataset
+from simulation.engine.robot import Motion, VirtualRaven
+from simulation.engine.scenarios import (
     ProtocolRecordings,
     long_operation,
     paper_protocol,

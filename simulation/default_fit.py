@@ -15,7 +15,7 @@ Each fit is a surrogate solved in casadi and checked by simulation: simulate wit
 parameters, record the elastic cable tensions (which the loads set, nearly independent of the
 cable law), solve for the law that maps those tensions to the published errors, and simulate
 again until the simulated errors agree. Run ``python -m simulation.default_fit`` to reproduce the
-defaults of :mod:`simulation.effects`; it prints target against achieved.
+defaults of :mod:`simulation.model.effects`; it prints target against achieved.
 """
 
 from __future__ import annotations
@@ -27,11 +27,11 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .cable_model import cable_stretch_curve, cable_tension_curve
-from .parameters import RavenParameters
-from .recording import Recording
-from .robot import VirtualRaven
-from .scenarios import _seeds, long_operation, powered_on, record_calibration, record_random_test, rehome
+from simulation.model.laws import cable_stretch_curve, cable_tension_curve
+from simulation.model.parameters import RavenParameters
+from simulation.recordings.recording import Recording
+from simulation.engine.robot import VirtualRaven
+from simulation.engine.scenarios import _seeds, long_operation, powered_on, record_calibration, record_random_test, rehome
 
 DEG = np.pi / 180.0
 MM = 1e-3

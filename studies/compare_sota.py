@@ -27,18 +27,18 @@ if __package__ in (None, ""):  # run as a script: make the project's packages im
 import numpy as np  # noqa: E402
 
 from simulation.trajectories import PAPER_SPARSITIES  # noqa: E402
-from studies import paper_numbers as paper  # noqa: E402
-from studies import plots, reporting  # noqa: E402
-from studies.cli import say, study_parser  # noqa: E402
-from studies.data_sources import (  # noqa: E402
+from studies.common import paper_numbers as paper  # noqa: E402
+from studies.common import plots, reporting  # noqa: E402
+from studies.common.cli import say, study_parser  # noqa: E402
+from studies.common.data_sources import (  # noqa: E402
     DEFAULT_TEST_FRACTION,
     ComparisonData,
     recorded_comparison,
     simulated_comparison,
 )
-from studies.evaluation import CARTESIAN_HEADERS, JOINT_HEADERS, JOINT_UNITS  # noqa: E402
-from studies.methods import ALL_METHODS, MethodSettings, method_catalogue  # noqa: E402
-from studies.training import MethodRun, run_methods  # noqa: E402
+from studies.common.evaluation import CARTESIAN_HEADERS, JOINT_HEADERS, JOINT_UNITS  # noqa: E402
+from studies.common.methods import ALL_METHODS, MethodSettings, method_catalogue  # noqa: E402
+from studies.common.training import MethodRun, run_methods  # noqa: E402
 
 STUDY = "compare_sota"
 
@@ -53,7 +53,7 @@ class CompareConfig:
     direction, sparsities : the calibration zig-zags (simulator only).
     test_duration : s of each random test motion (simulator only).
     payload_kg : load hung at the tool tip for the loaded test (simulator only).
-    methods : method keys, in table order (see :data:`studies.methods.ALL_METHODS`).
+    methods : method keys, in table order (see :data:`studies.common.methods.ALL_METHODS`).
     settings : training budgets.
     """
 

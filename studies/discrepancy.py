@@ -39,8 +39,8 @@ from simulation.discrepancy import (  # noqa: E402
     strongest_dependence,
 )
 from simulation.discrepancy.signals import pooled_rmse, report_scale  # noqa: E402
-from simulation.effects import EFFECT_NAMES  # noqa: E402
-from studies.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text  # noqa: E402
+from simulation.model.effects import EFFECT_NAMES  # noqa: E402
+from studies.common.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text  # noqa: E402
 
 HIDDEN_CHOICES = ("none",) + tuple(n for n in EFFECT_NAMES if n not in ("cable_stretch", "quantization", "noise",
                                                                          "homing_offset"))
@@ -66,8 +66,8 @@ def _is_dvrk(path: Path) -> bool:
 
 def read_raven_dataset(path: Path, arm: str = "left"):
     """A RAVEN-II dataset from a bag, a folder of bags or dataset files, or one dataset file."""
-    from simulation.dataset import CalibrationDataset, synchronize
-    from simulation.io.bags import read_bag, read_bag_folder
+    from simulation.recordings.dataset import CalibrationDataset, synchronize
+    from simulation.recordings.bags import read_bag, read_bag_folder
 
     if path.is_dir():
         bags = sorted(path.glob("*.bag"))

@@ -28,15 +28,15 @@ import numpy as np  # noqa: E402
 
 from simulation import powered_on, record_calibration, record_random_test, rehome  # noqa: E402
 from simulation.trajectories import PAPER_SPARSITIES  # noqa: E402
-from studies import paper_numbers as paper  # noqa: E402
-from studies import plots, reporting  # noqa: E402
-from studies.cli import say, study_parser  # noqa: E402
-from studies.evaluation import JOINT_HEADERS  # noqa: E402
-from studies.methods import MethodSettings, dnn, regression  # noqa: E402
-from studies.samples import Samples  # noqa: E402
-from studies.sessions import samples_of  # noqa: E402
-from studies.sweeps import run_tasks  # noqa: E402
-from studies.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
+from studies.common import paper_numbers as paper  # noqa: E402
+from studies.common import plots, reporting  # noqa: E402
+from studies.common.cli import say, study_parser  # noqa: E402
+from studies.common.evaluation import JOINT_HEADERS  # noqa: E402
+from studies.common.methods import MethodSettings, dnn, regression  # noqa: E402
+from studies.common.samples import Samples  # noqa: E402
+from studies.common.sessions import samples_of  # noqa: E402
+from studies.common.sweeps import run_tasks  # noqa: E402
+from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
 
 STUDY = "homing"
 SEEN = (0, 1)

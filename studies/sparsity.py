@@ -25,15 +25,15 @@ if __package__ in (None, ""):  # run as a script: make the project's packages im
 import numpy as np  # noqa: E402
 
 from simulation import powered_on, record_random_test  # noqa: E402
-from studies import paper_numbers as paper  # noqa: E402
-from studies import plots, reporting  # noqa: E402
-from studies.cli import say, study_parser  # noqa: E402
-from studies.evaluation import JOINT_HEADERS  # noqa: E402
-from studies.methods import MethodSettings, dnn, regression  # noqa: E402
-from studies.samples import Samples  # noqa: E402
-from studies.sessions import combination_label, record_zigzags, samples_of, training_sets  # noqa: E402
-from studies.sweeps import run_tasks  # noqa: E402
-from studies.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
+from studies.common import paper_numbers as paper  # noqa: E402
+from studies.common import plots, reporting  # noqa: E402
+from studies.common.cli import say, study_parser  # noqa: E402
+from studies.common.evaluation import JOINT_HEADERS  # noqa: E402
+from studies.common.methods import MethodSettings, dnn, regression  # noqa: E402
+from studies.common.samples import Samples  # noqa: E402
+from studies.common.sessions import combination_label, record_zigzags, samples_of, training_sets  # noqa: E402
+from studies.common.sweeps import run_tasks  # noqa: E402
+from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
 
 STUDY = "sparsity"
 MODELS = ("dnn", "polynomial", "linear", "fixed_offset")

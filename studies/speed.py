@@ -26,12 +26,12 @@ from tqdm.auto import tqdm  # noqa: E402
 
 from simulation import powered_on, record_calibration  # noqa: E402
 from simulation.trajectories import PAPER_SPARSITIES  # noqa: E402
-from studies import paper_numbers as paper  # noqa: E402
-from studies import plots, reporting  # noqa: E402
-from studies.cli import say, study_parser  # noqa: E402
-from studies.methods import MethodSettings, method_catalogue  # noqa: E402
-from studies.samples import Samples  # noqa: E402
-from studies.sessions import samples_of  # noqa: E402
+from studies.common import paper_numbers as paper  # noqa: E402
+from studies.common import plots, reporting  # noqa: E402
+from studies.common.cli import say, study_parser  # noqa: E402
+from studies.common.methods import MethodSettings, method_catalogue  # noqa: E402
+from studies.common.samples import Samples  # noqa: E402
+from studies.common.sessions import samples_of  # noqa: E402
 
 STUDY = "speed"
 SERVO_PERIOD_US = 1000.0

@@ -7,8 +7,8 @@ import pytest
 from rosbags.rosbag1 import Reader, Writer
 from scipy.spatial.transform import Rotation
 
-from simulation.dataset import convert_bag
-from simulation.io.bags import (
+from simulation.recordings.dataset import convert_bag
+from simulation.recordings.bags import (
     JOINT_STATE_MSGTYPE,
     SCENARIO_TOPIC,
     STATE_MSGTYPE,
@@ -20,7 +20,7 @@ from simulation.io.bags import (
     read_bag_folder,
     write_bag,
 )
-from simulation.ravenstate import RAVENSTATE_FIELDS, GroundTruthLog, RavenStateLog
+from simulation.recordings.ravenstate import RAVENSTATE_FIELDS, GroundTruthLog, RavenStateLog
 
 STATE_RATE, TRUTH_RATE = 30.0, 100.0
 

@@ -25,10 +25,10 @@ from estimators import (
     pooled_rmse,
     rmse_per_joint,
 )
-from estimators import gaussian_process as gp
-from estimators.forest import FlatForest
-from estimators.mlp_training import TrainingConfig, _Network
-from estimators.monomials import MonomialPlan
+from estimators import _gaussian_process as gp
+from estimators._forest import FlatForest
+from estimators._mlp_training import TrainingConfig, _Network
+from estimators._monomials import MonomialPlan
 from estimators.realtime import ForestPredictor
 
 

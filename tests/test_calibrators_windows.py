@@ -7,9 +7,9 @@ import pytest
 import torch
 
 from estimators import WindowLinearCalibrator, WindowLSTMCalibrator
-from estimators.lstm import LSTMWeights, forward
+from estimators._lstm import LSTMWeights, forward
 from estimators.realtime import WindowBuffer
-from estimators.windows import window_rows
+from estimators._windows import window_rows
 
 
 def lagged_system(n_samples=400, seed=0):

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from kinematics import RavenII
-from simulation.io.dvrk import locate_dvrk_data
+from simulation.recordings.dvrk import locate_dvrk_data
 from studies import compare_sota
-from studies.data_sources import recorded_comparison, simulated_comparison
-from studies.methods import BASE_METHODS, MethodSettings
-from studies.ukf_adapter import ukf_unavailable_reason
+from studies.common.data_sources import recorded_comparison, simulated_comparison
+from studies.common.methods import BASE_METHODS, MethodSettings
+from studies.common.ukf_adapter import ukf_unavailable_reason
 
 REDUCED = MethodSettings(dnn_seeds=1, dnn_epochs=60, lstm_epochs=2, forest_trees=5, two_phase_max_samples=800,
                          gpr_subset=300, gpr_hyper_subset=100, lstm_max_samples=800, ukf_tuning="none")
@@ -166,8 +166,8 @@ def test_quick_preset_keeps_the_physics_but_shortens_the_runs():
 
 def test_a_folder_of_bags_is_one_recording_per_bag(tmp_path):
     from simulation import powered_on, record_random_test
-    from simulation.io.bags import write_bag
-    from studies.evaluation import raven_model
+    from simulation.recordings.bags import write_bag
+    from studies.common.evaluation import raven_model
 
     robot = powered_on(seed=8)
     for k in range(2):

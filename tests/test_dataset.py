@@ -8,8 +8,8 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-import simulation.dataset as dataset_module
-from simulation.dataset import (
+import simulation.recordings.dataset as dataset_module
+from simulation.recordings.dataset import (
     ALL,
     FEATURE_COLUMNS,
     SELECTED,
@@ -19,8 +19,8 @@ from simulation.dataset import (
     register_feature_group,
     synchronize,
 )
-from simulation.io.tables import METADATA_KEY, TableFormatError
-from simulation.ravenstate import RAVENSTATE_FIELDS, GroundTruthLog, RavenStateLog
+from simulation.recordings.tables import METADATA_KEY, TableFormatError
+from simulation.recordings.ravenstate import RAVENSTATE_FIELDS, GroundTruthLog, RavenStateLog
 
 
 def random_state(time, seed=0, arm="left"):

@@ -29,8 +29,8 @@ from estimators import (
     pooled_rmse,
     rmse_per_joint,
 )
-from simulation.io import load_dvrk, locate_dvrk_data
-from simulation.io.dvrk import JOINT_NAMES, PRISMATIC_JOINTS, WRIST_JOINTS
+from simulation.recordings import load_dvrk, locate_dvrk_data
+from simulation.recordings.dvrk import JOINT_NAMES, PRISMATIC_JOINTS, WRIST_JOINTS
 
 RAW = list(range(6))
 REQUIRED_WRIST_REDUCTION = 0.25

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simulation.io import DvrkDataError, load_dvrk, locate_dvrk_data
-from simulation.io.dvrk import ENVIRONMENT_VARIABLE, JOINT_NAMES
+from simulation.recordings import DvrkDataError, load_dvrk, locate_dvrk_data
+from simulation.recordings.dvrk import ENVIRONMENT_VARIABLE, JOINT_NAMES
 
 
 def write_split(folder, n_samples=20, seed=0, **replace):

@@ -9,18 +9,18 @@ import pytest
 
 from kinematics import RavenII
 from kinematics.gravity_closed_form import gravity_torques_fast_batch, mass_matrix_fast
-from simulation.cable_model import cable_stretch_curve
-from simulation.constants import coupling_matrix
+from simulation.model.laws import cable_stretch_curve
+from simulation.model.constants import coupling_matrix
 from simulation.identification import (
     MotorLog,
     NotIdentifiableError,
     PoorlyIdentifiedWarning,
     identify,
 )
-from simulation.parameters import RavenParameters
-from simulation.recording import Recording
-from simulation.robot import VirtualRaven
-from simulation.scenarios import powered_on, record_random_test
+from simulation.model.parameters import RavenParameters
+from simulation.recordings.recording import Recording
+from simulation.engine.robot import VirtualRaven
+from simulation.engine.scenarios import powered_on, record_random_test
 from simulation.trajectories import random_sinusoidal
 from simulation.trajectories.random_motion import RandomMotionRanges
 

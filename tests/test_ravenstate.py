@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from rosbags.typesys import get_types_from_msg
 
-from simulation.io.bags import RAVEN_STATE_MSG, STATE_MSGTYPE
-from simulation.ravenstate import (
+from simulation.recordings.bags import RAVEN_STATE_MSG, STATE_MSGTYPE
+from simulation.recordings.ravenstate import (
     ARM_SLOTS,
     DOF_NAMES,
     FIELD_SPECS,

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from kinematics import RavenII
-from simulation.cable_model import cable_stretch_curve
-from simulation.effects import Backlash, Coupling, Drift, Quantization
-from simulation.parameters import RavenParameters
-from simulation.robot import Motion, VirtualRaven
-from simulation.scenarios import powered_on, rehome
+from simulation.model.laws import cable_stretch_curve
+from simulation.model.effects import Backlash, Coupling, Drift, Quantization
+from simulation.model.parameters import RavenParameters
+from simulation.engine.robot import Motion, VirtualRaven
+from simulation.engine.scenarios import powered_on, rehome
 
 POSE = np.array([np.deg2rad(40.0), np.deg2rad(80.0), 0.38, 0.0, 0.0, np.pi / 4, np.pi / 4])
 
@@ -51,7 +51,7 @@ def test_all_effects_off_joints_equal_nominal_coupling_within_encoder_resolution
 
 
 def Recording_concat(a, b):
-    from simulation.recording import Recording
+    from simulation.recordings.recording import Recording
 
     return Recording.concatenate([a, b])
 

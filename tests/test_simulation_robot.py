@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from kinematics import RavenII
-from simulation.dataset import synchronize
-from simulation.io.bags import read_bag, write_bag
-from simulation.parameters import RavenParameters
-from simulation.ravenstate import RAVENSTATE_FIELDS
-from simulation.recording import Recording, recording_to_dataset
-from simulation.robot import Motion, VirtualRaven
-from simulation.scenarios import powered_on, record_random_test
+from simulation.recordings.dataset import synchronize
+from simulation.recordings.bags import read_bag, write_bag
+from simulation.model.parameters import RavenParameters
+from simulation.recordings.ravenstate import RAVENSTATE_FIELDS
+from simulation.recordings.recording import Recording, recording_to_dataset
+from simulation.engine.robot import Motion, VirtualRaven
+from simulation.engine.scenarios import powered_on, record_random_test
 from simulation.trajectories import random_sinusoidal
 
 

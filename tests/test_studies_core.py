@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from kinematics import RavenII
-from studies import paper_numbers as paper
-from studies.evaluation import (
+from studies.common import paper_numbers as paper
+from studies.common.evaluation import (
     cartesian_rmse_report,
     joint_rmse_report,
     mean_scores,
@@ -19,12 +19,12 @@ from studies.evaluation import (
     score,
     to_report_units,
 )
-from studies.methods import CalibratorOnSamples, Method, MethodSettings, dnn, method_catalogue, raw, regression, seeds_for
-from studies.reporting import agreement_line, format_value, markdown_table, to_jsonable, write_json
-from studies.samples import Samples
-from studies.sweeps import run_tasks
-from studies.training import fit_and_score, run_methods
-from studies.ukf_adapter import UKFOnSamples, ukf_unavailable_reason
+from studies.common.methods import CalibratorOnSamples, Method, MethodSettings, dnn, method_catalogue, raw, regression, seeds_for
+from studies.common.reporting import agreement_line, format_value, markdown_table, to_jsonable, write_json
+from studies.common.samples import Samples
+from studies.common.sweeps import run_tasks
+from studies.common.training import fit_and_score, run_methods
+from studies.common.ukf_adapter import UKFOnSamples, ukf_unavailable_reason
 from estimators import LinearCalibrator, WindowLinearCalibrator
 
 

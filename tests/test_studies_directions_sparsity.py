@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from studies import directions, sparsity
-from studies.methods import MethodSettings
+from studies.common.methods import MethodSettings
 
 TINY = MethodSettings(dnn_seeds=1, dnn_epochs=20)
 RUN = {"n_jobs": 1, "backend": "sequential", "progress": False}

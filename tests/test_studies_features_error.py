@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from studies import input_features, train_on_error
-from studies import paper_numbers as paper
+from studies.common import paper_numbers as paper
 from studies.long_operation import OperationSessionConfig
-from studies.methods import MethodSettings
+from studies.common.methods import MethodSettings
 
 TINY = MethodSettings(dnn_seeds=1, dnn_epochs=15)
 SESSION = OperationSessionConfig(seed=5, hours=0.06, sparsities=(1 / 2,), block_hours=0.03, eval_stride=15)

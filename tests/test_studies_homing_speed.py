@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from studies import homing, speed
-from studies.methods import MethodSettings
+from studies.common.methods import MethodSettings
 
 TINY = MethodSettings(dnn_seeds=1, dnn_epochs=15)
 HOMING = homing.HomingConfig(seed=6, sparsities=(1 / 2, 1 / 3), n_homings=2, test_duration=40.0, settings=TINY)

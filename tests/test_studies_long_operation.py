@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from studies import long_operation as lo
-from studies.methods import MethodSettings
-from studies.sessions import by_hour
+from studies.common.methods import MethodSettings
+from studies.common.sessions import by_hour
 
 TINY = MethodSettings(dnn_seeds=1, dnn_epochs=20)
 SESSION = lo.OperationSessionConfig(seed=4, hours=0.1, sparsities=(1 / 2,), block_hours=0.05, eval_stride=10)

@@ -11,19 +11,19 @@ from sklearn.exceptions import NotFittedError
 
 from kinematics import RavenII
 from kinematics.gravity_closed_form import gravity_torques_fast
-from simulation.cable_model import stiffness_tension
-from simulation.dataset import synchronize
+from simulation.model.laws import stiffness_tension
+from simulation.recordings.dataset import synchronize
 from simulation.identification import MotorLog
-from simulation.io.bags import read_bag, write_bag
-from simulation.parameters import RavenParameters
-from simulation.scenarios import powered_on, record_random_test
+from simulation.recordings.bags import read_bag, write_bag
+from simulation.model.parameters import RavenParameters
+from simulation.engine.scenarios import powered_on, record_random_test
 
 from estimators import UKFJointEstimator
-from estimators.ukf_filter import BatchUnscentedKalmanFilter, sigma_points
-from estimators.ukf_model import P_HARDENING, P_LOAD, P_STIFFNESS, CableModel
-from estimators.ukf_noise import ProcessNoise, encoder_noise
-from estimators.ukf_process import ProcessModel
-from estimators.ukf_run import initial_state, motor_readings
+from estimators.ukf._filter import BatchUnscentedKalmanFilter, sigma_points
+from estimators.ukf.model import P_HARDENING, P_LOAD, P_STIFFNESS, CableModel
+from estimators.ukf.noise import ProcessNoise, encoder_noise
+from estimators.ukf.process import ProcessModel
+from estimators.ukf.run import initial_state, motor_readings
 
 OWN_MODEL = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction",
              "quantization", "noise")

@@ -2,7 +2,7 @@
 effect from the simulator's library, add it with fitted parameters, and show the gap shrink.
 
 Like a sparse model-discovery method, it is a library of candidate terms (the named effects of
-:mod:`simulation.effects`) plus a selection (held-out residual reduction with a BIC penalty).
+:mod:`simulation.model.effects`) plus a selection (held-out residual reduction with a BIC penalty).
 See :mod:`simulation.discrepancy.workflow` for the steps and ``studies/discrepancy.py`` for the
 command line.
 """

@@ -2,7 +2,7 @@
 
 A :class:`Candidate` knows which effect it adds, its free parameters (with bounds and a typical
 scale), and how to put an effect with given parameter values into a model. For RAVEN-II models
-the addition is the simulator's own effect object (:mod:`simulation.effects`), so "adding the
+the addition is the simulator's own effect object (:mod:`simulation.model.effects`), so "adding the
 missing effect" is adding that object to the model's parameter set; for generic models it is the
 effect's joint-space form (:mod:`simulation.discrepancy.generic`).
 """
@@ -14,11 +14,11 @@ from typing import Callable
 
 import numpy as np
 
-from simulation.effects import Backlash, CoulombFriction, Coupling, Drift, GravityStretch, Hysteresis, ViscousFriction
+from simulation.model.effects import Backlash, CoulombFriction, Coupling, Drift, GravityStretch, Hysteresis, ViscousFriction
 
-from .generic import NominalModel
-from .replay import RavenModel
-from .signals import MeasuredSignals
+from simulation.discrepancy.generic import NominalModel
+from simulation.discrepancy.replay import RavenModel
+from simulation.discrepancy.signals import MeasuredSignals
 
 
 @dataclass(frozen=True)

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from simulation.effects import Backlash, CapstanRunout, Drift
-from simulation.parameters import RavenParameters
+from simulation.model.effects import Backlash, CapstanRunout, Drift
+from simulation.model.parameters import RavenParameters
 
-from .generic import NominalModel
-from .replay import RavenModel
-from .signals import MeasuredSignals
-from .workflow import BaseIdentifier, DiscrepancyResult, Split, WorkflowSettings, run_workflow
+from simulation.discrepancy.generic import NominalModel
+from simulation.discrepancy.replay import RavenModel
+from simulation.discrepancy.signals import MeasuredSignals
+from simulation.discrepancy.workflow import BaseIdentifier, DiscrepancyResult, Split, WorkflowSettings, run_workflow
 
 NOMINAL_STRUCTURE = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction")
 """The starting model's structure: the cable model the identification fits (the UKF's model class)."""
@@ -37,12 +37,12 @@ the capstan runout of a 60 um eccentric capstan (the effect the library lacks, f
 def generate_measured(hidden=(), seed: int = 0, duration: float = 240.0, params: RavenParameters | None = None):
     """Simulated "measured" data: the nominal structure with ``hidden`` effects on.
 
-    Returns the dataset (a :class:`~simulation.dataset.CalibrationDataset` of one homed session of
+    Returns the dataset (a :class:`~simulation.recordings.dataset.CalibrationDataset` of one homed session of
     random motion) and the generating parameters (for reports only; the workflow never sees them).
     """
     from kinematics import RavenII
-    from simulation.recording import recording_to_dataset
-    from simulation.scenarios import powered_on, record_random_test
+    from simulation.recordings.recording import recording_to_dataset
+    from simulation.engine.scenarios import powered_on, record_random_test
 
     hidden = tuple(hidden)
     base = params or RavenParameters()
@@ -59,7 +59,7 @@ def uninformed_start(arm: str = "left") -> RavenParameters:
     """Round-number starting guesses for the identification, unrelated to any generator's values:
     cables of 50 N m/rad, 20 N m/rad and 1000 N/m hardening over 0.05 rad, 0.05 rad and 5 mm, the
     controller's coupling, small friction."""
-    from simulation.effects import CableStretch, CoulombFriction, Coupling, ViscousFriction
+    from simulation.model.effects import CableStretch, CoulombFriction, Coupling, ViscousFriction
 
     params = RavenParameters(arm=arm)
     params = params.with_effect(CableStretch(stiffness=[50.0, 20.0, 1000.0], hardening=[0.05, 0.05, 0.005]))
@@ -85,7 +85,7 @@ def identified_model(dataset, mask: np.ndarray, structure=NOMINAL_STRUCTURE) -> 
 
 def _with_truth_corrected(dataset, correction: np.ndarray):
     """The dataset with ``correction`` (N, 3) subtracted from its ground-truth joints."""
-    from simulation.dataset import TRUTH_COLUMNS, CalibrationDataset
+    from simulation.recordings.dataset import TRUTH_COLUMNS, CalibrationDataset
 
     table = dataset.table.copy()
     table.loc[:, list(TRUTH_COLUMNS)] = table[list(TRUTH_COLUMNS)].to_numpy() - correction
@@ -145,7 +145,7 @@ def run_on_generic(time, reported, truth, joint_names, units, held_out_start: in
 def run_on_dvrk(root=None, joints=(3, 4, 5), settings: WorkflowSettings = WorkflowSettings()):
     """The workflow on the dVRK data of Hwang et al. 2020: fit and choose on the random motion,
     report on the peg-transfer recording (appended after it in time)."""
-    from simulation.io.dvrk import JOINT_NAMES, PRISMATIC_JOINTS, load_dvrk
+    from simulation.recordings.dvrk import JOINT_NAMES, PRISMATIC_JOINTS, load_dvrk
 
     joints = tuple(joints)
     train = load_dvrk(root, "random_unfiltered")

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .candidates import Candidate
-from .signals import MeasuredSignals
+from simulation.discrepancy.candidates import Candidate
+from simulation.discrepancy.signals import MeasuredSignals
 
 
 @dataclass(frozen=True)

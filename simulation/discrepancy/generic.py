@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .replay import ReplayState, bouc_wen_series, play_series
-from .signals import MeasuredSignals
+from simulation.discrepancy.replay import ReplayState, bouc_wen_series, play_series
+from simulation.discrepancy.signals import MeasuredSignals
 
 GENERIC_EFFECTS = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "coupling", "drift")
 

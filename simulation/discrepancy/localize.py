@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .replay import ReplayState
-from .signals import MeasuredSignals, report_scale
+from simulation.discrepancy.replay import ReplayState
+from simulation.discrepancy.signals import MeasuredSignals, report_scale
 
 
 def _quantile_bins(values: np.ndarray, n_bins: int) -> np.ndarray:

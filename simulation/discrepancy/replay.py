@@ -1,6 +1,6 @@
 """Replay: drive a model with measured inputs and predict what the sensors should read.
 
-For RAVEN-II data the model is the cable model of a :class:`~simulation.parameters.RavenParameters`
+For RAVEN-II data the model is the cable model of a :class:`~simulation.model.parameters.RavenParameters`
 (the fitted model of the identification, or the simulator's): the measured motor positions drive
 the cable coupling, the measured link motion and payload set the link loads (gravity, friction,
 inertia), the cable law turns the loads into stretch, and the prediction is
@@ -21,11 +21,11 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from simulation.cable_model import play
-from simulation.constants import coupling_matrix
-from simulation.parameters import RavenParameters
+from simulation.model.laws import play
+from simulation.model.constants import coupling_matrix
+from simulation.model.parameters import RavenParameters
 
-from .signals import MeasuredSignals
+from simulation.discrepancy.signals import MeasuredSignals
 
 
 @njit(cache=True)
@@ -183,7 +183,7 @@ class RavenModel:
         return names + (("homing_offset",) if self.homing_offsets else ())
 
     def with_effect(self, effect) -> "RavenModel":
-        """The model with ``effect`` (an :class:`~simulation.effects.Effect`) added or replaced."""
+        """The model with ``effect`` (an :class:`~simulation.model.effects.Effect`) added or replaced."""
         return RavenModel(self.params.with_effect(effect), self.offsets, self.homing_offsets)
 
     def with_offsets(self, offsets) -> "RavenModel":

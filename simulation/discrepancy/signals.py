@@ -173,8 +173,8 @@ class MeasuredSignals:
 
     @classmethod
     def from_dataset(cls, dataset, constants=None) -> "MeasuredSignals":
-        """Signals of a RAVEN-II :class:`~simulation.dataset.CalibrationDataset` (simulated or from bags)."""
-        from simulation.constants import RavenConstants
+        """Signals of a RAVEN-II :class:`~simulation.recordings.dataset.CalibrationDataset` (simulated or from bags)."""
+        from simulation.model.constants import RavenConstants
 
         c = constants or RavenConstants(arm=dataset.arm)
         table = dataset.table

@@ -26,11 +26,11 @@ from typing import Callable
 
 import numpy as np
 
-from .candidates import Candidate, library
-from .generic import NominalModel
-from .replay import RavenModel
-from .fitting import ChannelWeights, Residual, fit_candidate, residual
-from .signals import MeasuredSignals, joint_rmse, pooled_rmse, report_scale
+from simulation.discrepancy.candidates import Candidate, library
+from simulation.discrepancy.generic import NominalModel
+from simulation.discrepancy.replay import RavenModel
+from simulation.discrepancy.fitting import ChannelWeights, Residual, fit_candidate, residual
+from simulation.discrepancy.signals import MeasuredSignals, joint_rmse, pooled_rmse, report_scale
 
 
 @dataclass(frozen=True)
@@ -206,7 +206,7 @@ def current_values_of_all(model, candidates) -> np.ndarray:
 
 def _joint_candidate(parts, model) -> Candidate:
     """Several candidates' parameters as one, so casadi fits them together."""
-    from .candidates import ParameterBlock
+    from simulation.discrepancy.candidates import ParameterBlock
 
     sizes = [c.n_parameters for c in parts]
     bounds = [c.bounds() for c in parts]

@@ -3,20 +3,20 @@
 :func:`identify` fits the cable model of the positioning joints (hardening stiffness law, damping,
 Coulomb and viscous friction, gravity load scale, coupling) and the session's joint offsets to a log
 of motor positions, motor torques and ground-truth joints, such as the calibration run. It returns
-an :class:`IdentificationResult`: a fitted :class:`~simulation.parameters.RavenParameters` (so
+an :class:`IdentificationResult`: a fitted :class:`~simulation.model.parameters.RavenParameters` (so
 ``VirtualRaven(result.parameters)`` is the fitted model, and the UKF takes its cable model from
 it), the offsets, estimates with standard errors and confidence intervals, and a fit report.
 
 The stiffness law is the simulator's ``T = k x0 sinh(s / x0)`` (see
-:class:`~simulation.effects.CableStretch`): a hardening spring whose inverse is closed-form, so the
+:class:`~simulation.model.effects.CableStretch`): a hardening spring whose inverse is closed-form, so the
 joint prediction is explicit in the tension.
 """
 
-from .fit import identify
-from .layout import DEFAULT_FIXED, FITTABLE_EFFECTS, SLOT_NAMES
-from .motor_log import MotorLog, as_motor_log
-from .result import FitReport, IdentificationResult, NotIdentifiableError, ParameterEstimate, PoorlyIdentifiedWarning
-from .samples import IdentificationSamples, prepare_samples
+from simulation.identification.fit import identify
+from simulation.identification.layout import DEFAULT_FIXED, FITTABLE_EFFECTS, SLOT_NAMES
+from simulation.identification.motor_log import MotorLog, as_motor_log
+from simulation.identification.result import FitReport, IdentificationResult, NotIdentifiableError, ParameterEstimate, PoorlyIdentifiedWarning
+from simulation.identification.samples import IdentificationSamples, prepare_samples
 
 __all__ = [
     "DEFAULT_FIXED",

@@ -33,10 +33,10 @@ import casadi as ca
 import numpy as np
 from scipy.stats import norm
 
-from ..cable_model import cable_stretch_curve
-from ..constants import coupling_matrix
-from ..parameters import RavenParameters
-from .layout import (
+from simulation.model.laws import cable_stretch_curve
+from simulation.model.constants import coupling_matrix
+from simulation.model.parameters import RavenParameters
+from simulation.identification.layout import (
     COULOMB,
     COUPLING_DELTA,
     DAMPING,
@@ -53,9 +53,9 @@ from .layout import (
     ParameterLayout,
     build_layout,
 )
-from .residuals import D_GRAVITY, D_INERTIAL, D_Q, D_QD, D_TAU, D_U, D_UD, D_UDD, D_WQ, D_WT, N_DATA, residual_function
-from .result import FitReport, IdentificationResult, NotIdentifiableError, ParameterEstimate, PoorlyIdentifiedWarning
-from .samples import DERIVATIVE_WINDOW, IdentificationSamples, prepare_samples
+from simulation.identification.residuals import D_GRAVITY, D_INERTIAL, D_Q, D_QD, D_TAU, D_U, D_UD, D_UDD, D_WQ, D_WT, N_DATA, residual_function
+from simulation.identification.result import FitReport, IdentificationResult, NotIdentifiableError, ParameterEstimate, PoorlyIdentifiedWarning
+from simulation.identification.samples import DERIVATIVE_WINDOW, IdentificationSamples, prepare_samples
 
 MIN_SPEED_FACTOR = 5.0
 """Residuals involving a joint's dry friction are used where it moves faster than this many

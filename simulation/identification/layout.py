@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..parameters import RavenParameters
+from simulation.model.parameters import RavenParameters
 
 FITTABLE_EFFECTS = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction")
 """Effects whose parameters the identification can estimate (the UKF's model class)."""

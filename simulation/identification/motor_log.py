@@ -3,8 +3,8 @@
 Identification and the UKF read the same few channels of the positioning joints (shoulder, elbow,
 insertion): motor positions (``mpos``), commanded motor torques (``tau``), and, where the log has
 them, the external joint encoders (ground truth) and the payload label. :func:`as_motor_log`
-takes them from a :class:`~simulation.dataset.CalibrationDataset` (simulated or read from a ROS
-bag) or from a simulated :class:`~simulation.recording.Recording`, so both consumers accept either.
+takes them from a :class:`~simulation.recordings.dataset.CalibrationDataset` (simulated or read from a ROS
+bag) or from a simulated :class:`~simulation.recordings.recording.Recording`, so both consumers accept either.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simulation.dataset import TRUTH_COLUMNS, CalibrationDataset
+from simulation.recordings.dataset import TRUTH_COLUMNS, CalibrationDataset
 
 POSITIONING = ("shoulder", "elbow", "z_ins")
 """The paper's joints 1-3 (rad, rad, m); the column suffixes of a calibration dataset."""

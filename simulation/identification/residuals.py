@@ -9,7 +9,7 @@ and two measurements check it:
 
 * the joints: the motors, through the coupling ``A`` and the offsets ``o``, put the cable ends at
   ``p = A u + o``; a cable carrying the elastic tension ``T - damping * s'`` is stretched by
-  ``s = x0 asinh((T - damping s') / (k x0))`` (:func:`simulation.cable_model.stretch_from_tension`),
+  ``s = x0 asinh((T - damping s') / (k x0))`` (:func:`simulation.model.laws.stretch_from_tension`),
   so the joints sit at ``p - s``; residual ``q - (p - s)`` (rad, rad, m);
 * the motor torques: the motors feel the cables through ``A^T``,
   ``tau_u = J_u u'' + b_u u' + A^T T``; residual in N m, N m, N.
@@ -24,8 +24,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ..constants import RavenConstants
-from .layout import (
+from simulation.model.constants import RavenConstants
+from simulation.identification.layout import (
     COULOMB,
     COUPLING_DELTA,
     DAMPING,
@@ -44,7 +44,7 @@ N_RESIDUALS = 6
 
 
 def symbolic_coupling(c01, c02, c12) -> ca.SX:
-    """:func:`simulation.constants.coupling_matrix` as a casadi expression."""
+    """:func:`simulation.model.constants.coupling_matrix` as a casadi expression."""
     return ca.vertcat(
         ca.horzcat(1.0, 0.0, 0.0),
         ca.horzcat(-c01, 1.0, 0.0),

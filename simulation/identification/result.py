@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..parameters import RavenParameters
-from .layout import JOINT_NAMES
+from simulation.model.parameters import RavenParameters
+from simulation.identification.layout import JOINT_NAMES
 
 REPORT_SCALE = np.array([180.0 / np.pi, 180.0 / np.pi, 1000.0])
 REPORT_UNITS = ("deg", "deg", "mm")
@@ -109,7 +109,7 @@ class IdentificationResult:
 
     Attributes
     ----------
-    parameters : the fitted :class:`~simulation.parameters.RavenParameters`: the model's effects
+    parameters : the fitted :class:`~simulation.model.parameters.RavenParameters`: the model's effects
         on with their fitted values, every other effect off; ``VirtualRaven(parameters)`` is the
         fitted model, and the UKF takes its cable model from it.
     offsets : (3,) joint offsets of the session (rad, rad, m): the cable ends sit at

@@ -19,9 +19,9 @@ from scipy.signal import savgol_filter
 from kinematics import RavenII
 from kinematics.gravity_closed_form import gravity_torques_fast, mass_matrix_fast
 
-from ..constants import RavenConstants
-from ..parameters import RavenParameters
-from .motor_log import as_motor_log
+from simulation.model.constants import RavenConstants
+from simulation.model.parameters import RavenParameters
+from simulation.identification.motor_log import as_motor_log
 
 DERIVATIVE_WINDOW = 0.6
 """Savitzky-Golay window (s): long beside the log period (19 samples at 30 Hz), short beside the

@@ -6,12 +6,12 @@ Every motion is a :class:`JointTrajectory`: uniformly sampled positions and velo
 seven DOFs ``[shoulder, elbow, insertion, tool_rot, wrist, grasp1, grasp2]`` in SI units.
 """
 
-from .calibration_runs import PAPER_SPARSITIES, calibration_run, zigzag_label, zigzag_trajectory
-from .composition import JOIN_TOLERANCE, TRANSITION_LABEL, concatenate
-from .joint_trajectory import DEFAULT_RATE, STORAGE_DTYPE, JointTrajectory, Segment, uniform_times
-from .path_following import DEFAULT_BLEND_TIME, DEFAULT_SPEED, follow
-from .point_to_point import GO_TO_ACCEL_TIME, GO_TO_GAIN, GO_TO_MAX_VELOCITY, go_to, idle
-from .poses import (
+from simulation.trajectories.calibration_runs import PAPER_SPARSITIES, calibration_run, zigzag_label, zigzag_trajectory
+from simulation.trajectories.composition import JOIN_TOLERANCE, TRANSITION_LABEL, concatenate
+from simulation.trajectories.joint_trajectory import DEFAULT_RATE, STORAGE_DTYPE, JointTrajectory, Segment, uniform_times
+from simulation.trajectories.path_following import DEFAULT_BLEND_TIME, DEFAULT_SPEED, follow
+from simulation.trajectories.point_to_point import GO_TO_ACCEL_TIME, GO_TO_GAIN, GO_TO_MAX_VELOCITY, go_to, idle
+from simulation.trajectories.poses import (
     DOF_NAMES,
     GRASP_HOME,
     HOME_POSITIONING,
@@ -24,9 +24,9 @@ from .poses import (
     full_pose,
     tool_pose,
 )
-from .random_motion import PUBLISHED_RANDOM_RANGES, RandomMotionRanges, random_sinusoidal
-from .workspace import CALIBRATION_WORKSPACE, Workspace
-from .zigzag import (
+from simulation.trajectories.random_motion import PUBLISHED_RANDOM_RANGES, RandomMotionRanges, random_sinusoidal
+from simulation.trajectories.workspace import CALIBRATION_WORKSPACE, Workspace
+from simulation.trajectories.zigzag import (
     CUBE_SIDE,
     DEFAULT_STEP,
     DIRECTIONS,

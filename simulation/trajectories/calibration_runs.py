@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from .composition import concatenate
-from .joint_trajectory import DEFAULT_RATE, JointTrajectory
-from .path_following import DEFAULT_BLEND_TIME, DEFAULT_SPEED, follow
-from .poses import HOME_TOOL_POSE
-from .workspace import Workspace
-from .zigzag import lanes_per_axis, zigzag
+from simulation.trajectories.composition import concatenate
+from simulation.trajectories.joint_trajectory import DEFAULT_RATE, JointTrajectory
+from simulation.trajectories.path_following import DEFAULT_BLEND_TIME, DEFAULT_SPEED, follow
+from simulation.trajectories.poses import HOME_TOOL_POSE
+from simulation.trajectories.workspace import Workspace
+from simulation.trajectories.zigzag import lanes_per_axis, zigzag
 
 PAPER_SPARSITIES = (1 / 6, 1 / 4, 1 / 3)
 """Sparsities combined in the paper's longest calibration run (1013 s)."""

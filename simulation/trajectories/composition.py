@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .joint_trajectory import STORAGE_DTYPE, JointTrajectory, Segment, uniform_times
-from .point_to_point import go_to
+from simulation.trajectories.joint_trajectory import STORAGE_DTYPE, JointTrajectory, Segment, uniform_times
+from simulation.trajectories.point_to_point import go_to
 
 JOIN_TOLERANCE = 1e-6
 """Largest position (rad, m) or velocity (rad/s, m/s) gap treated as continuous at a junction;

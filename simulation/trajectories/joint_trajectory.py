@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .poses import N_DOF
+from simulation.trajectories.poses import N_DOF
 
 DEFAULT_RATE = 100.0
 """Sampling rate of trajectories (Hz)."""

@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .joint_trajectory import DEFAULT_RATE, STORAGE_DTYPE, JointTrajectory
-from .poses import HOME_TOOL_POSE, N_DOF, N_POSITIONING, tool_pose
-from .workspace import Workspace, resolve_workspace
+from simulation.trajectories.joint_trajectory import DEFAULT_RATE, STORAGE_DTYPE, JointTrajectory
+from simulation.trajectories.poses import HOME_TOOL_POSE, N_DOF, N_POSITIONING, tool_pose
+from simulation.trajectories.workspace import Workspace, resolve_workspace
 
 DEFAULT_SPEED = 0.063
 """Path speed (normalized workspace units per second). Chosen so that following the zig-zags of

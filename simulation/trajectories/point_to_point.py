@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .joint_trajectory import DEFAULT_RATE, STORAGE_DTYPE, JointTrajectory
-from .poses import HOME_TOOL_POSE, N_DOF, full_pose
+from simulation.trajectories.joint_trajectory import DEFAULT_RATE, STORAGE_DTYPE, JointTrajectory
+from simulation.trajectories.poses import HOME_TOOL_POSE, N_DOF, full_pose
 
 GO_TO_MAX_VELOCITY = (
     float(np.deg2rad(3.0)),

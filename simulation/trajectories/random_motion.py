@@ -19,9 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .joint_trajectory import DEFAULT_RATE, STORAGE_DTYPE, JointTrajectory
-from .poses import HOME_TOOL_POSE, N_DOF, N_POSITIONING, tool_pose
-from .workspace import Workspace, resolve_workspace
+from simulation.trajectories.joint_trajectory import DEFAULT_RATE, STORAGE_DTYPE, JointTrajectory
+from simulation.trajectories.poses import HOME_TOOL_POSE, N_DOF, N_POSITIONING, tool_pose
+from simulation.trajectories.workspace import Workspace, resolve_workspace
 
 
 def _three_positive(values, name: str) -> tuple[float, float, float]:

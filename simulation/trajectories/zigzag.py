@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .workspace import Workspace, resolve_workspace
+from simulation.trajectories.workspace import Workspace, resolve_workspace
 
 DEFAULT_STEP = 1e-3
 """Distance between consecutive path points in lane coordinates (the generator's ``scar_l``);

@@ -1,0 +1,239 @@
+"""The model-based baseline: an unscented Kalman filter on the identified motor-cable-link model.
+
+After Haghighipanah et al. (IROS 2015) and its ancestor, Naerum, King and Hannaford (RSS 2009):
+the joints of a cable-driven arm are estimated from what its controller logs, motor encoders and
+commanded motor torques, through a two-mass model of each positioning joint (motor, cable, link).
+
+Design choices
+--------------
+* State, 12 (joint units): motor coordinates ``u = mpos / ratio`` and rates, joint positions and
+  rates, for shoulder, elbow and insertion together, because the cable coupling ``A`` ties them
+  (the joint cables run over the earlier joints' axes). Input: commanded torque ``tau``, held
+  between log samples. Measurement: the three motor encoders, linear in the state.
+* Process model: the identified cable model (:mod:`simulation.identification`) integrated at 1 kHz
+  inside ``fx`` for all sigma points at once (:mod:`~estimators.ukf.process`); the filter updates at
+  the rate of the log (30 Hz ravenstate, or faster). ``benchmarks/bench_ukf.py`` measures the
+  real-time factor and the accuracy against the update rate.
+* Sigma points: filterpy's ``MerweScaledSigmaPoints`` with alpha = 1, beta = 2, kappa = 0: every
+  weight is non-negative, so the predicted covariance is positive semi-definite by construction.
+* Noise: measurement noise is the motor encoder's one-count quantization (known, not tuned).
+  Process noise is white acceleration noise on the motors and on the links (six densities),
+  started from the identification's residuals and tuned on the calibration run by Nelder-Mead in
+  log space, maximising the innovation likelihood (``tuning="likelihood"``, needs no ground truth)
+  or minimising the joint error against the ground truth (``tuning="joint_error"``).
+
+The estimator follows the project's calibrators where it can (hyper-parameters in ``__init__``,
+``fit`` returns ``self``, learned state ends in ``_``) but consumes time-ordered logs: a
+:class:`~simulation.recordings.dataset.CalibrationDataset` (simulated or read from a ROS bag), a simulated
+:class:`~simulation.recordings.recording.Recording`, or a :class:`~simulation.identification.MotorLog`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import minimize
+from sklearn.base import BaseEstimator
+from sklearn.utils.validation import check_is_fitted
+
+from simulation.identification import (
+    DEFAULT_FIXED,
+    FITTABLE_EFFECTS,
+    IdentificationResult,
+    MotorLog,
+    as_motor_log,
+    identify,
+)
+from simulation.model.parameters import RavenParameters
+
+from estimators.ukf.model import CableModel
+from estimators.ukf.noise import ProcessNoise, encoder_noise, physical_process_noise
+from estimators.ukf.process import MAX_STEP, REFRESH
+from estimators.ukf.run import JointEstimates, UKFSettings, run_filter
+
+TUNING_CRITERIA = ("likelihood", "joint_error", "none")
+
+
+class UKFJointEstimator(BaseEstimator):
+    """Unscented Kalman filter for joints 1-3 of a RAVEN-II arm from motor encoders and torques.
+
+    Parameters
+    ----------
+    effects : effects of the identified model (see :func:`simulation.identification.identify`).
+    fixed : parameters held at ``base_parameters``' values during identification.
+    base_parameters : RavenParameters giving constants and initial guesses (default: the virtual
+        RAVEN-II of the log's arm).
+    identification_options : dict of further keyword arguments for ``identify``.
+    process_noise : a :class:`~estimators.ukf.noise.ProcessNoise` to use as is (no tuning), or None.
+    measurement_noise : (3,) standard deviation of the motor encoder readings (motor rad), or None
+        for one-count quantization.
+    tuning : ``"likelihood"``, ``"joint_error"`` or ``"none"`` (keep the starting noise).
+    tuning_seconds : length of the calibration log the tuning filters (from its start), s.
+    tuning_evaluations : filter runs the Nelder-Mead search may spend.
+    payload_kg : payload the process model assumes at the tool tip (kg); the controller does not
+        know the payload, and neither does the filter by default.
+    alpha, beta, kappa : sigma-point parameters.
+    max_step : longest integration sub-step of the process model (s).
+    refresh : sub-steps between fresh evaluations of inertia, gravity and the cable law.
+    max_gap : a log gap longer than this restarts the filter (s).
+
+    Attributes
+    ----------
+    identification_ : IdentificationResult of the fit log.
+    model_ : CableModel the filter runs.
+    process_noise_ : ProcessNoise in use.
+    measurement_noise_ : (3, 3) measurement covariance (motor coordinates).
+    tuning_history_ : list of (log10 densities, objective) of every tuning run.
+    """
+
+    def __init__(self, *, effects=FITTABLE_EFFECTS, fixed=DEFAULT_FIXED, base_parameters: RavenParameters | None = None,
+                 identification_options: dict | None = None, process_noise: ProcessNoise | None = None,
+                 measurement_noise=None, tuning: str = "likelihood", tuning_seconds: float = 120.0,
+                 tuning_evaluations: int = 40, payload_kg: float = 0.0, alpha: float = 1.0, beta: float = 2.0,
+                 kappa: float = 0.0, max_step: float = MAX_STEP, refresh: int = REFRESH, max_gap: float = 1.0):
+        self.effects = effects
+        self.fixed = fixed
+        self.base_parameters = base_parameters
+        self.identification_options = identification_options
+        self.process_noise = process_noise
+        self.measurement_noise = measurement_noise
+        self.tuning = tuning
+        self.tuning_seconds = tuning_seconds
+        self.tuning_evaluations = tuning_evaluations
+        self.payload_kg = payload_kg
+        self.alpha = alpha
+        self.beta = beta
+        self.kappa = kappa
+        self.max_step = max_step
+        self.refresh = refresh
+        self.max_gap = max_gap
+
+    # ---- settings ------------------------------------------------------------------------
+
+    def _settings(self) -> UKFSettings:
+        for name in ("alpha", "max_step", "max_gap"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be positive, got {value!r}")
+        if int(self.refresh) < 1:
+            raise ValueError(f"refresh must be >= 1, got {self.refresh!r}")
+        return UKFSettings(alpha=float(self.alpha), beta=float(self.beta), kappa=float(self.kappa),
+                           max_step=float(self.max_step), refresh=int(self.refresh), max_gap=float(self.max_gap))
+
+    def _measurement_covariance(self, model: CableModel) -> np.ndarray:
+        if self.measurement_noise is None:
+            return encoder_noise(model)
+        sigma = np.broadcast_to(np.asarray(self.measurement_noise, dtype=float), (3,))
+        if not np.all(np.isfinite(sigma) & (sigma > 0)):
+            raise ValueError(f"measurement_noise must be 3 positive values (motor rad), got {self.measurement_noise!r}")
+        return np.diag((sigma / model.transmission_ratio) ** 2)
+
+    # ---- fitting -------------------------------------------------------------------------
+
+    def fit(self, log, y=None) -> "UKFJointEstimator":
+        """Identify the cable model on a log with ground truth (the calibration run), then set the noise.
+
+        Parameters
+        ----------
+        log : CalibrationDataset, Recording or MotorLog with motor positions, motor torques and
+            ground-truth joints.
+        y : ignored (the ground truth comes with the log).
+
+        Returns
+        -------
+        self
+        """
+        if self.tuning not in TUNING_CRITERIA:
+            raise ValueError(f"tuning must be one of {TUNING_CRITERIA}, got {self.tuning!r}")
+        log = as_motor_log(log)
+        settings = self._settings()
+        base = self.base_parameters if self.base_parameters is not None else RavenParameters(arm=log.arm)
+        options = dict(self.identification_options or {})
+        result = identify(log, effects=self.effects, base=base, fixed=self.fixed, **options)
+        return self._finish_fit(result, log, settings)
+
+    def fit_identified(self, result: IdentificationResult, log=None) -> "UKFJointEstimator":
+        """Use an existing identification; tune the noise on ``log`` unless ``process_noise`` is given."""
+        if not isinstance(result, IdentificationResult):
+            raise TypeError(f"expected an IdentificationResult, got {type(result).__name__}")
+        if self.tuning not in TUNING_CRITERIA:
+            raise ValueError(f"tuning must be one of {TUNING_CRITERIA}, got {self.tuning!r}")
+        needs_log = self.process_noise is None and self.tuning != "none"
+        if needs_log and log is None:
+            raise ValueError("noise tuning needs a log; pass one, or process_noise, or tuning='none'")
+        return self._finish_fit(result, None if log is None else as_motor_log(log), self._settings())
+
+    def _finish_fit(self, result: IdentificationResult, log: MotorLog | None, settings: UKFSettings):
+        model = CableModel.from_parameters(result.parameters, result.offsets, self.payload_kg)
+        measurement = self._measurement_covariance(model)
+        self.tuning_history_ = []
+        if self.process_noise is not None:
+            if not isinstance(self.process_noise, ProcessNoise):
+                raise TypeError("process_noise must be a ProcessNoise or None")
+            noise = self.process_noise
+        else:
+            period = float(np.median(np.diff(log.time))) if log is not None and len(log) > 1 else 1.0 / 30.0
+            noise = physical_process_noise(model, result.report.torque_rmse, result.report.joint_rmse, period)
+            if self.tuning != "none":
+                noise = self._tune(noise, model, measurement, log, settings)
+        self.identification_ = result
+        self.model_ = model
+        self.process_noise_ = noise
+        self.measurement_noise_ = measurement
+        return self
+
+    def _tune(self, start: ProcessNoise, model: CableModel, measurement: np.ndarray, log: MotorLog,
+              settings: UKFSettings) -> ProcessNoise:
+        if not (np.isfinite(self.tuning_seconds) and self.tuning_seconds > 0):
+            raise ValueError(f"tuning_seconds must be positive, got {self.tuning_seconds!r}")
+        window = log.between(log.time[0], log.time[0] + float(self.tuning_seconds))
+        if len(window) < 10:
+            raise ValueError("the tuning window holds fewer than 10 samples")
+        if self.tuning == "joint_error":
+            if not window.has_truth:
+                raise ValueError("tuning='joint_error' needs ground truth in the log")
+            raw = (window.motor_positions / model.transmission_ratio) @ model.nominal_coupling.T
+            raw_mse = np.mean((raw - window.joints) ** 2, axis=0)
+
+        def objective(vector):
+            noise = ProcessNoise.from_vector(vector)
+            estimates = run_filter(window, model, noise, measurement, settings, warn=False,
+                                   likelihood=self.tuning == "likelihood")
+            if self.tuning == "likelihood":
+                value = -estimates.log_likelihood / len(window)
+            else:
+                value = float(np.sum(np.mean((estimates.joints - window.joints) ** 2, axis=0) / raw_mse))
+            if not np.isfinite(value):
+                value = 1e30
+            self.tuning_history_.append((np.asarray(vector, dtype=float).copy(), float(value)))
+            return value
+
+        x0 = start.as_vector()
+        simplex = np.vstack([x0] + [x0 + 0.5 * np.eye(x0.size)[k] for k in range(x0.size)])
+        solution = minimize(objective, x0, method="Nelder-Mead",
+                            options={"maxfev": int(self.tuning_evaluations), "initial_simplex": simplex,
+                                     "xatol": 0.02, "fatol": 1e-6})
+        best = min(self.tuning_history_, key=lambda item: item[1])[0] if self.tuning_history_ else solution.x
+        return ProcessNoise.from_vector(best)
+
+    # ---- filtering -----------------------------------------------------------------------
+
+    def predict(self, log, *, eigenvalues: bool = False) -> JointEstimates:
+        """Run the filter over a time-ordered log.
+
+        Parameters
+        ----------
+        log : CalibrationDataset, Recording or MotorLog (ground truth not needed). NaN motor
+            readings skip their update, NaN torques reuse the last valid one, gaps are predicted
+            across (restart after ``max_gap``); all counted in a RuntimeWarning.
+        eigenvalues : also record the smallest eigenvalue of the full state covariance at every
+            sample (positive definiteness check).
+
+        Returns
+        -------
+        JointEstimates
+            ``joints`` (N, 3) rad, rad, m and ``covariance`` (N, 3, 3) at every log sample.
+        """
+        check_is_fitted(self, "model_")
+        log = as_motor_log(log)
+        return run_filter(log, self.model_, self.process_noise_, self.measurement_noise_, self._settings(),
+                          eigenvalues=eigenvalues)

@@ -1,0 +1,5 @@
+"""Reading and writing recorded robot data: ROS bags, dataset tables, and other robots' formats."""
+
+from simulation.recordings.bags import BagFormatError, read_bag, read_bag_folder, write_bag
+from simulation.recordings.tables import TableFormatError
+from simulation.recordings.dvrk import DvrkDataError, DvrkDataset, load_dvrk, locate_dvrk_data

@@ -1,0 +1,301 @@
+"""The calibration methods a study compares, each as a named recipe that builds a fresh estimator.
+
+Every method answers ``fit(samples)`` then ``predict(samples)`` with joints 1-3 (N, 3) in SI
+units. The learned calibrators of :mod:`estimators` are wrapped by :class:`CalibratorOnSamples`
+(train on the error by default, time-ordered prediction per recording for the temporal-window
+models); ``raw`` returns the motor-encoder joints; the UKF goes through
+:mod:`studies.common.ukf_adapter`. A :class:`Method` is picklable, so sweeps can ship it to workers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from functools import partial
+from typing import Callable, Protocol
+
+import numpy as np
+from sklearn.base import clone
+
+from estimators import (
+    DNNCalibrator,
+    FixedOffsetCalibrator,
+    GPRCalibrator,
+    LinearCalibrator,
+    PolynomialCalibrator,
+    TwoPhaseCalibrator,
+    WindowLinearCalibrator,
+    WindowLSTMCalibrator,
+)
+
+from studies.common.samples import Samples
+from studies.common.ukf_adapter import UKFOnSamples, ukf_unavailable_reason
+
+
+class SampleEstimator(Protocol):
+    """What every method builds: fit on samples, predict joints 1-3 (N, 3) in SI units."""
+
+    def fit(self, samples: Samples) -> "SampleEstimator": ...
+
+    def predict(self, samples: Samples) -> np.ndarray: ...
+
+
+class RawJoints:
+    """No calibration: the joints the motor encoders report."""
+
+    def fit(self, samples: Samples) -> "RawJoints":
+        return self
+
+    def predict(self, samples: Samples) -> np.ndarray:
+        return samples.raw_joints.copy()
+
+
+class CalibratorOnSamples:
+    """A learned calibrator (scikit-learn contract) trained and applied on :class:`Samples`.
+
+    Parameters
+    ----------
+    calibrator : an unfitted calibrator of :mod:`estimators`; cloned at fit time.
+    train_on_error : learn ``truth - raw`` and add it to the raw joints (the paper's choice),
+        else learn the joints end-to-end.
+    temporal : the calibrator reads a window of past rows: training rows must be consecutive log
+        samples, and prediction runs recording by recording from its first row.
+    max_train_samples : train on at most this many rows, drawn at random without replacement
+        with ``seed`` (a contiguous block of the first recordings for a temporal model); None: all.
+    seed : seeds the subsample.
+    """
+
+    def __init__(self, calibrator, *, train_on_error: bool = True, temporal: bool = False,
+                 max_train_samples: int | None = None, seed: int = 0) -> None:
+        self.calibrator = calibrator
+        self.train_on_error = train_on_error
+        self.temporal = temporal
+        self.max_train_samples = max_train_samples
+        self.seed = seed
+
+    def _training_rows(self, samples: Samples) -> Samples:
+        limit = self.max_train_samples
+        if limit is None or len(samples) <= limit:
+            return samples
+        if self.temporal:
+            return samples.select(np.arange(int(limit)))
+        rows = np.sort(np.random.default_rng(self.seed).choice(len(samples), int(limit), replace=False))
+        return samples.select(rows)
+
+    def _check_history(self, samples: Samples) -> None:
+        if self.temporal and samples.stride != 1:
+            raise ValueError(
+                f"{type(self.calibrator).__name__} reads a window of past rows, but these samples keep "
+                f"only every {samples.stride}th log sample")
+
+    def fit(self, samples: Samples) -> "CalibratorOnSamples":
+        self._check_history(samples)
+        train = self._training_rows(samples)
+        model = clone(self.calibrator)
+        model.set_params(raw_columns=list(train.raw_columns) if self.train_on_error else None)
+        if self.temporal and len(train.recordings()) > 1:
+            X, y = _separated_recordings(train, int(model.get_params()["window"]))
+        else:
+            X, y = train.X, train.targets
+        model.fit(X, y)
+        self.model_ = model
+        return self
+
+    def predict(self, samples: Samples) -> np.ndarray:
+        self._check_history(samples)
+        if not self.temporal:
+            return np.asarray(self.model_.predict(samples.X), dtype=np.float64)
+        out = np.empty((len(samples), 3))
+        for rows in samples.recordings():
+            out[rows] = self.model_.predict(samples.X[rows])
+        return out
+
+
+def _separated_recordings(samples: Samples, window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of several recordings for a window model, so that no window spans two of them.
+
+    Each recording after the first is preceded by ``window - 1`` copies of its own first row
+    (with that row's targets): a window reaching back past the start of a recording sees the
+    robot at rest at its first state, as the window models pad the start of a single recording.
+    """
+    X_parts, y_parts = [], []
+    for k, rows in enumerate(samples.recordings()):
+        X, y = samples.X[rows], samples.targets[rows]
+        if k and window > 1:
+            X_parts.append(np.repeat(X[:1], window - 1, axis=0))
+            y_parts.append(np.repeat(y[:1], window - 1, axis=0))
+        X_parts.append(X)
+        y_parts.append(y)
+    return np.vstack(X_parts), np.vstack(y_parts)
+
+
+UKF_TUNINGS = ("likelihood", "joint_error", "none")
+
+
+@dataclass(frozen=True)
+class MethodSettings:
+    """Training budgets of the methods (the paper's values by default).
+
+    Attributes
+    ----------
+    dnn_seeds : training seeds averaged for the networks (the paper: 5).
+    dnn_epochs : epochs of the paper's DNN (200).
+    lstm_epochs : epochs of the window LSTM.
+    window : rows in the window of the temporal models (Hwang et al.: the current one and 4 before).
+    forest_trees : trees of the two-phase model's random forest.
+    two_phase_max_samples : training rows of the two-phase model (None: all).
+    gpr_subset : support points of the Gaussian process.
+    gpr_hyper_subset : points of the kernel hyper-parameter fit.
+    lstm_max_samples : training rows of the window LSTM (None: all).
+    ukf_tuning : how the UKF tunes its process noise on the calibration run (``"likelihood"``,
+        ``"joint_error"``, or ``"none"``: keep the noise derived from the identification).
+    n_threads : torch/BLAS threads per fit (1 lets parallel sweeps use one core per task).
+    """
+
+    dnn_seeds: int = 5
+    dnn_epochs: int = 200
+    lstm_epochs: int = 20
+    window: int = 5
+    forest_trees: int = 50
+    two_phase_max_samples: int | None = None
+    gpr_subset: int = 2000
+    gpr_hyper_subset: int = 500
+    lstm_max_samples: int | None = None
+    ukf_tuning: str = "likelihood"
+    n_threads: int = 1
+
+    def __post_init__(self) -> None:
+        for name in ("dnn_seeds", "dnn_epochs", "lstm_epochs", "window", "forest_trees", "gpr_subset",
+                     "gpr_hyper_subset", "n_threads"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if self.ukf_tuning not in UKF_TUNINGS:
+            raise ValueError(f"ukf_tuning must be one of {UKF_TUNINGS}, got {self.ukf_tuning!r}")
+        for name in ("two_phase_max_samples", "lstm_max_samples"):
+            value = getattr(self, name)
+            if value is not None and (int(value) != value or value < 1):
+                raise ValueError(f"{name} must be None or a positive integer, got {value!r}")
+
+    @classmethod
+    def quick(cls) -> "MethodSettings":
+        """Short budgets for a quick look: one network seed, few LSTM epochs, subsampled slow peers,
+        an untuned UKF."""
+        return cls(dnn_seeds=1, lstm_epochs=3, forest_trees=10, two_phase_max_samples=2000,
+                   gpr_subset=600, gpr_hyper_subset=200, lstm_max_samples=3000, ukf_tuning="none")
+
+    def with_(self, **changes) -> "MethodSettings":
+        return replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class Method:
+    """A named calibration method of a study.
+
+    Attributes
+    ----------
+    key : results key (``"dnn"``, ``"ukf"``...).
+    label : row label in tables and plots.
+    model : the "Model" column of the paper's Tables III and IV (``"DNN"``, ``"Lin Reg"``...).
+    reference : whose method it is.
+    make : ``make(seed)`` returns a new unfitted :class:`SampleEstimator`.
+    n_seeds : training seeds whose scores are averaged.
+    needs_robot_state : needs the full robot state (motor torques) beyond the model inputs.
+    unavailable : None, or one line saying why the method cannot run here.
+    cost : expected training time relative to the paper's DNN; sweeps start the costly runs first.
+    """
+
+    key: str
+    label: str
+    model: str
+    reference: str
+    make: Callable[[int], SampleEstimator]
+    n_seeds: int = 1
+    needs_robot_state: bool = False
+    unavailable: str | None = None
+    cost: float = 0.05
+
+
+def _raw(seed: int) -> RawJoints:
+    return RawJoints()
+
+
+def _calibrator(calibrator, seed: int, *, seeded: bool = False, **options) -> CalibratorOnSamples:
+    model = clone(calibrator)
+    if seeded:
+        model.set_params(random_state=int(seed))
+    return CalibratorOnSamples(model, seed=seed, **options)
+
+
+def _ukf(tuning: str, seed: int) -> UKFOnSamples:
+    return UKFOnSamples(tuning=tuning)
+
+
+def raw() -> Method:
+    """No calibration: the motor-encoder joints."""
+    return Method("raw", "Raw (motor encoders)", "Raw", "no calibration", _raw)
+
+
+def dnn(settings: MethodSettings, *, large: bool = False, train_on_error: bool = True, key: str = "dnn",
+        label: str = "DNN") -> Method:
+    """The paper's DNN (2 x 100 sigmoid units; ``large``: 600-500-400 with regularization)."""
+    network = (DNNCalibrator.large if large else DNNCalibrator)(
+        max_epochs=settings.dnn_epochs, n_threads=settings.n_threads)
+    return Method(key, label, "DNN", "Peng et al. (the paper)",
+                  partial(_calibrator, network, seeded=True, train_on_error=train_on_error),
+                  n_seeds=settings.dnn_seeds, cost=15.0 if large else 1.0)
+
+
+def regression(kind: str, *, train_on_error: bool = True, key: str | None = None, label: str | None = None) -> Method:
+    """Fixed offset, linear or 2nd-order polynomial regression of the paper."""
+    calibrators = {"fixed_offset": (FixedOffsetCalibrator(), "Fixed offset", "Fixed Offset"),
+                   "linear": (LinearCalibrator(), "Linear regression", "Lin Reg"),
+                   "polynomial": (PolynomialCalibrator(degree=2), "2nd-order polynomial", "2nd Reg")}
+    if kind not in calibrators:
+        raise ValueError(f"kind must be one of {sorted(calibrators)}, got {kind!r}")
+    calibrator, default_label, model = calibrators[kind]
+    return Method(key or kind, label or default_label, model, "Peng et al. (the paper)",
+                  partial(_calibrator, calibrator, train_on_error=train_on_error),
+                  cost=0.1 if kind == "polynomial" else 0.01)
+
+
+BASE_METHODS = ("raw", "fixed_offset", "linear", "polynomial", "dnn", "ukf")
+"""Methods every comparison reports."""
+PEER_METHODS = ("gpr", "two_phase", "window_linear", "window_lstm")
+"""Published peers re-run here on the same data."""
+ALL_METHODS = BASE_METHODS + PEER_METHODS
+
+
+def method_catalogue(settings: MethodSettings | None = None) -> dict[str, Method]:
+    """Every method of the comparison, keyed as in ``results.json``, in table order."""
+    s = settings or MethodSettings()
+    lstm = WindowLSTMCalibrator(window=s.window, max_epochs=s.lstm_epochs, n_threads=s.n_threads)
+    gpr = GPRCalibrator(subset_size=s.gpr_subset, hyperparameter_subset_size=s.gpr_hyper_subset,
+                        n_threads=s.n_threads)
+    two_phase = TwoPhaseCalibrator(dnn=DNNCalibrator(max_epochs=s.dnn_epochs, n_threads=s.n_threads),
+                                   n_estimators=s.forest_trees, n_jobs=1)
+    methods = [
+        raw(),
+        regression("fixed_offset"),
+        regression("linear"),
+        regression("polynomial"),
+        dnn(s),
+        Method("ukf", "UKF", "UKF", "Haghighipanah et al. (IROS 2015)", partial(_ukf, s.ukf_tuning),
+               needs_robot_state=True, unavailable=ukf_unavailable_reason(), cost=1.0),
+        Method("gpr", "Gaussian process", "GPR", "Mahler et al. (CASE 2014)",
+               partial(_calibrator, gpr, seeded=True), cost=0.3),
+        Method("two_phase", "Two-phase DNN + forest", "DNN + RF", "Seita et al. (ICRA 2018)",
+               partial(_calibrator, two_phase, seeded=True, max_train_samples=s.two_phase_max_samples),
+               cost=3.0),
+        Method("window_linear", f"Window linear ({s.window} rows)", "Lin Reg (window)",
+               "Hwang et al. (RA-L 2020)",
+               partial(_calibrator, WindowLinearCalibrator(window=s.window), temporal=True)),
+        Method("window_lstm", f"Window LSTM ({s.window} rows)", "RNN (LSTM)", "Hwang et al. (RA-L 2020)",
+               partial(_calibrator, lstm, seeded=True, temporal=True, max_train_samples=s.lstm_max_samples),
+               cost=2.5),
+    ]
+    return {method.key: method for method in methods}
+
+
+def seeds_for(method: Method, base_seed: int) -> list[int]:
+    """Training seeds of a method: independent streams spawned from the study's seed."""
+    return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(base_seed).spawn(method.n_seeds)]
