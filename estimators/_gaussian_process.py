@@ -96,17 +96,33 @@ def negative_log_likelihood(log_vector: np.ndarray, X: np.ndarray,
 
 def optimize_kernel(X: np.ndarray, Y: np.ndarray, initial: KernelParameters,
                     length_bounds: tuple[float, float], noise_bounds: tuple[float, float],
-                    max_iterations: int) -> KernelParameters:
-    """Maximize the log marginal likelihood from `initial` within the bounds."""
+                    max_iterations: int,
+                    callback=None) -> tuple[KernelParameters, scipy.optimize.OptimizeResult]:
+    """Maximize the log marginal likelihood from `initial` within the bounds.
+
+    Parameters
+    ----------
+    callback : callable, optional
+        ``callback(intermediate_result)`` after every L-BFGS-B iteration, with the current
+        negative log-likelihood in ``intermediate_result.fun`` (for progress; it cannot change
+        the result).
+
+    Returns
+    -------
+    params : KernelParameters
+        The optimum (`initial`, clipped to the bounds, if the optimizer found no finite value).
+    result : scipy.optimize.OptimizeResult
+        The optimizer's report (iterations, final negative log-likelihood, message).
+    """
     n_features = X.shape[1]
     bounds = ([tuple(np.log(length_bounds))] * n_features
               + [(np.log(1e-3), np.log(1e3)), tuple(np.log(noise_bounds))])
     start = np.clip(initial.to_log_vector(), [b[0] for b in bounds], [b[1] for b in bounds])
     result = scipy.optimize.minimize(
         negative_log_likelihood, start, args=(X, Y), jac=True, method="L-BFGS-B",
-        bounds=bounds, options={"maxiter": max_iterations})
+        bounds=bounds, options={"maxiter": max_iterations}, callback=callback)
     best = result.x if np.isfinite(result.fun) else start
-    return KernelParameters.from_log_vector(best)
+    return KernelParameters.from_log_vector(best), result
 
 
 def solve_weights(X: np.ndarray, Y: np.ndarray, params: KernelParameters) -> np.ndarray:

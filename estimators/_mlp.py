@@ -1,6 +1,6 @@
 """Numpy side of the fully connected networks: initialization and batch forward pass.
 
-Training runs in torch (`estimators._mlp_training`); the learned weights are plain float64
+Training runs in torch (`estimators._torch_training`); the learned weights are plain float64
 arrays, so prediction, saving and real-time export need numpy only.
 """
 

@@ -76,6 +76,18 @@ def check_positive_int(value, name: str, minimum: int = 1) -> int:
     return int(value)
 
 
+def check_n_threads(value) -> int | None:
+    """Return `n_threads` (None: leave the library's setting) if it is None or an int >= 1."""
+    return None if value is None else check_positive_int(value, "n_threads")
+
+
+def check_verbose(value) -> int:
+    """Return `verbose` as int if it is an integer (or bool) >= 0, scikit-learn's convention."""
+    if isinstance(value, bool):
+        return int(value)
+    return check_positive_int(value, "verbose", minimum=0)
+
+
 def check_non_negative_float(value, name: str) -> float:
     """Return `value` as float if it is a finite real >= 0, else raise."""
     if not isinstance(value, numbers.Real) or isinstance(value, bool):

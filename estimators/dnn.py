@@ -2,21 +2,13 @@
 
 from __future__ import annotations
 
-import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
 from estimators import _mlp as mlp
-from estimators._base import CalibratorBase
-from estimators._randomness import make_generator
-from estimators.realtime import MLPPredictor
+from estimators._network import NetworkCalibrator
 from estimators._standardization import Standardizer
-from estimators._validation import (
-    check_choice,
-    check_layer_sizes,
-    check_non_negative_float,
-    check_open_interval,
-    check_positive_int,
-)
+from estimators._validation import check_choice, check_layer_sizes, check_non_negative_float
+from estimators.realtime import MLPPredictor
 
 # The paper's larger network for the 138 "all features" input (3 hidden layers).
 LARGE_HIDDEN_LAYER_SIZES = (600, 500, 400)
@@ -33,7 +25,7 @@ LARGE_REGULARIZATION = {
 }
 
 
-class DNNCalibrator(CalibratorBase):
+class DNNCalibrator(NetworkCalibrator):
     """Fully connected network from robot state to joint correction.
 
     Defaults are the paper's network: 2 hidden layers of 100 sigmoid units, mean squared error,
@@ -78,6 +70,9 @@ class DNNCalibrator(CalibratorBase):
         Seeds the initial weights and the batch order.
     n_threads : int or None, default=None
         Torch threads during `fit` (None: torch's current setting); restored afterwards.
+    verbose : int, default=0
+        0: silent; 1: a line with the training loss (and validation loss), and the elapsed
+        time, on stdout every 10 epochs and on the first and last one; 2 or more: every epoch.
 
     Attributes
     ----------
@@ -102,25 +97,18 @@ class DNNCalibrator(CalibratorBase):
                  kernel_l2=5e-4, kernel_l1=0.0, bias_l2=0.0, activity_l2=0.0,
                  learning_rate=1e-3, beta_1=0.9, beta_2=0.999, batch_size=1024, max_epochs=200,
                  early_stopping=False, validation_fraction=0.1, n_iter_no_change=10, tol=1e-4,
-                 random_state=None, n_threads=None):
-        self.raw_columns = raw_columns
+                 random_state=None, n_threads=None, verbose=0):
+        super().__init__(
+            raw_columns=raw_columns, learning_rate=learning_rate, beta_1=beta_1, beta_2=beta_2,
+            batch_size=batch_size, max_epochs=max_epochs, early_stopping=early_stopping,
+            validation_fraction=validation_fraction, n_iter_no_change=n_iter_no_change,
+            tol=tol, random_state=random_state, n_threads=n_threads, verbose=verbose)
         self.hidden_layer_sizes = hidden_layer_sizes
         self.activation = activation
         self.kernel_l2 = kernel_l2
         self.kernel_l1 = kernel_l1
         self.bias_l2 = bias_l2
         self.activity_l2 = activity_l2
-        self.learning_rate = learning_rate
-        self.beta_1 = beta_1
-        self.beta_2 = beta_2
-        self.batch_size = batch_size
-        self.max_epochs = max_epochs
-        self.early_stopping = early_stopping
-        self.validation_fraction = validation_fraction
-        self.n_iter_no_change = n_iter_no_change
-        self.tol = tol
-        self.random_state = random_state
-        self.n_threads = n_threads
 
     @classmethod
     def large(cls, **overrides) -> "DNNCalibrator":
@@ -134,55 +122,30 @@ class DNNCalibrator(CalibratorBase):
     def _check_params(self):
         check_layer_sizes(self.hidden_layer_sizes, "hidden_layer_sizes")
         check_choice(self.activation, "activation", mlp.ACTIVATIONS)
-        for name in ("kernel_l2", "kernel_l1", "bias_l2", "activity_l2", "tol"):
+        for name in ("kernel_l2", "kernel_l1", "bias_l2", "activity_l2"):
             check_non_negative_float(getattr(self, name), name)
-        check_open_interval(self.learning_rate, "learning_rate", 0.0, np.inf)
-        check_open_interval(self.beta_1, "beta_1", 0.0, 1.0)
-        check_open_interval(self.beta_2, "beta_2", 0.0, 1.0)
-        check_positive_int(self.batch_size, "batch_size")
-        check_positive_int(self.max_epochs, "max_epochs")
-        check_open_interval(self.validation_fraction, "validation_fraction", 0.0, 1.0)
-        check_positive_int(self.n_iter_no_change, "n_iter_no_change")
-        if self.n_threads is not None:
-            check_positive_int(self.n_threads, "n_threads")
+        super()._check_params()
 
-    def _training_config(self):
-        from estimators._mlp_training import TrainingConfig
-        from estimators._training_loop import EarlyStopping
+    def _train_network(self, inputs, targets, rng):
+        # torch is needed for training only: prediction and real-time export stay numpy-only.
+        from estimators._torch_training import MLPSettings, train_mlp
 
-        stopping = (EarlyStopping(float(self.validation_fraction), int(self.n_iter_no_change),
-                                  float(self.tol)) if self.early_stopping else None)
-        return TrainingConfig(
+        sizes = (inputs.shape[1], *check_layer_sizes(self.hidden_layer_sizes,
+                                                     "hidden_layer_sizes"), targets.shape[1])
+        weights, biases = mlp.glorot_uniform(sizes, rng)
+        network = MLPSettings(
             activation=self.activation, kernel_l2=float(self.kernel_l2),
             kernel_l1=float(self.kernel_l1), bias_l2=float(self.bias_l2),
-            activity_l2=float(self.activity_l2), learning_rate=float(self.learning_rate),
-            beta_1=float(self.beta_1), beta_2=float(self.beta_2),
-            batch_size=int(self.batch_size), max_epochs=int(self.max_epochs),
-            early_stopping=stopping)
+            activity_l2=float(self.activity_l2))
+        result = train_mlp(inputs, targets, weights, biases, network, self._training_settings(),
+                           rng, self.n_threads)
+        weights, biases = result.state
+        self.coefs_, self.intercepts_ = list(weights), list(biases)
+        return result
 
-    def _fit_correction(self, X, correction):
-        # torch is needed for training only: prediction and real-time export stay numpy-only.
-        from estimators._mlp_training import train_mlp
-
-        x_scaler, target_scaler = Standardizer.fit_inputs(X), Standardizer.fit_targets(correction)
-        rng = make_generator(self.random_state)
-        sizes = (X.shape[1], *check_layer_sizes(self.hidden_layer_sizes, "hidden_layer_sizes"),
-                 correction.shape[1])
-        weights, biases = mlp.glorot_uniform(sizes, rng)
-        result = train_mlp(x_scaler.transform(X), target_scaler.transform(correction), weights,
-                           biases, self._training_config(), rng, self.n_threads)
-        self.coefs_, self.intercepts_ = list(result.weights), list(result.biases)
-        self.x_mean_, self.x_scale_ = x_scaler.mean, x_scaler.scale
-        self.target_mean_, self.target_scale_ = target_scaler.mean, target_scaler.scale
-        self.loss_curve_ = result.loss_curve
-        self.validation_loss_curve_ = result.validation_curve
-        self.n_epochs_ = len(result.loss_curve)
-        self.best_epoch_ = result.best_epoch
-
-    def _predict_correction(self, X):
-        standardized = mlp.forward((X - self.x_mean_) / self.x_scale_, self.coefs_,
-                                   self.intercepts_, self.activation)
-        return standardized * self.target_scale_ + self.target_mean_
+    def _network_output(self, X):
+        return mlp.forward((X - self.x_mean_) / self.x_scale_, self.coefs_, self.intercepts_,
+                           self.activation)
 
     def _build_realtime(self):
         return self.network_predictor(self.raw_columns_)
@@ -197,26 +160,15 @@ class DNNCalibrator(CalibratorBase):
             return MLPPredictor.from_sigmoid_network(weights, biases, raw_index)
         return MLPPredictor(weights, biases, self.activation, raw_index)
 
-    def _fitted_arrays(self):
+    def _network_arrays(self):
         arrays = {f"coef.{i}": w for i, w in enumerate(self.coefs_)}
         arrays.update({f"intercept.{i}": b for i, b in enumerate(self.intercepts_)})
-        arrays.update(x_mean=self.x_mean_, x_scale=self.x_scale_,
-                      target_mean=self.target_mean_, target_scale=self.target_scale_,
-                      loss_curve=self.loss_curve_,
-                      validation_loss_curve=self.validation_loss_curve_,
-                      best_epoch=np.asarray(self.best_epoch_))
         return arrays
 
-    def _restore_fitted_arrays(self, arrays):
+    def _restore_network_arrays(self, arrays):
         n_layers = sum(name.startswith("coef.") for name in arrays)
         self.coefs_ = [arrays[f"coef.{i}"] for i in range(n_layers)]
         self.intercepts_ = [arrays[f"intercept.{i}"] for i in range(n_layers)]
-        self.x_mean_, self.x_scale_ = arrays["x_mean"], arrays["x_scale"]
-        self.target_mean_, self.target_scale_ = arrays["target_mean"], arrays["target_scale"]
-        self.loss_curve_ = arrays["loss_curve"]
-        self.validation_loss_curve_ = arrays["validation_loss_curve"]
-        self.n_epochs_ = len(self.loss_curve_)
-        self.best_epoch_ = int(arrays["best_epoch"])
 
 
 def fold_standardization(weights, biases, inputs: Standardizer, outputs: Standardizer):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -10,7 +12,12 @@ from estimators._base import CalibratorBase
 from estimators._randomness import make_generator
 from estimators.realtime import KernelPredictor
 from estimators._standardization import Standardizer
-from estimators._validation import check_bounds, check_positive_int
+from estimators._validation import (
+    check_bounds,
+    check_n_threads,
+    check_positive_int,
+    check_verbose,
+)
 
 
 class GPRCalibrator(CalibratorBase):
@@ -46,6 +53,11 @@ class GPRCalibrator(CalibratorBase):
     n_threads : int or None, default=None
         BLAS threads during `fit` (None: the current setting). On a CPU shared with other
         busy processes, 1 avoids threads waiting on each other.
+    verbose : int, default=0
+        0: silent; 1: on stdout, one line when the hyper-parameter optimization ends (its
+        iterations, final negative log marginal likelihood and elapsed time) and one when the
+        posterior weights are solved; 2 or more: also one line per L-BFGS-B iteration. There is
+        a single optimizer run (no restarts). It does not change the result.
 
     Attributes
     ----------
@@ -62,7 +74,7 @@ class GPRCalibrator(CalibratorBase):
 
     def __init__(self, *, raw_columns=None, subset_size=2000, hyperparameter_subset_size=500,
                  length_scale_bounds=(1e-2, 1e3), noise_level_bounds=(1e-6, 1.0),
-                 max_optimizer_iterations=200, random_state=None, n_threads=None):
+                 max_optimizer_iterations=200, random_state=None, n_threads=None, verbose=0):
         self.raw_columns = raw_columns
         self.subset_size = subset_size
         self.hyperparameter_subset_size = hyperparameter_subset_size
@@ -71,6 +83,7 @@ class GPRCalibrator(CalibratorBase):
         self.max_optimizer_iterations = max_optimizer_iterations
         self.random_state = random_state
         self.n_threads = n_threads
+        self.verbose = verbose
 
     def _check_params(self):
         check_positive_int(self.subset_size, "subset_size")
@@ -78,8 +91,8 @@ class GPRCalibrator(CalibratorBase):
         check_bounds(self.length_scale_bounds, "length_scale_bounds")
         check_bounds(self.noise_level_bounds, "noise_level_bounds")
         check_positive_int(self.max_optimizer_iterations, "max_optimizer_iterations")
-        if self.n_threads is not None:
-            check_positive_int(self.n_threads, "n_threads")
+        check_n_threads(self.n_threads)
+        check_verbose(self.verbose)
 
     def _fit_correction(self, X, correction):
         with threadpool_limits(limits=self.n_threads, user_api="blas"):
@@ -96,13 +109,22 @@ class GPRCalibrator(CalibratorBase):
         initial = gp.KernelParameters(
             length_scale=np.full(X.shape[1], np.sqrt(X.shape[1])), signal_variance=1.0,
             noise_variance=0.1)
-        params = gp.optimize_kernel(
+        verbose, start = check_verbose(self.verbose), time.perf_counter()
+        params, report = gp.optimize_kernel(
             support[:n_hyper], targets[:n_hyper], initial,
             check_bounds(self.length_scale_bounds, "length_scale_bounds"),
             check_bounds(self.noise_level_bounds, "noise_level_bounds"),
-            int(self.max_optimizer_iterations))
+            int(self.max_optimizer_iterations),
+            callback=_IterationPrinter(start) if verbose >= 2 else None)
+        if verbose:
+            print(f"GPR kernel fit on {n_hyper} points: {report.nit} L-BFGS-B iterations, "
+                  f"negative log-likelihood = {report.fun:.6f}, "
+                  f"elapsed {time.perf_counter() - start:.1f} s", flush=True)
         self.support_ = support
         self.dual_coef_ = gp.solve_weights(support, targets, params)
+        if verbose:
+            print(f"GPR posterior weights on {n_support} support points, "
+                  f"elapsed {time.perf_counter() - start:.1f} s", flush=True)
         self.length_scale_ = params.length_scale
         self.signal_variance_ = params.signal_variance
         self.noise_variance_ = params.noise_variance
@@ -146,3 +168,16 @@ class GPRCalibrator(CalibratorBase):
         self.noise_variance_ = float(arrays["noise_variance"])
         self.x_mean_, self.x_scale_ = arrays["x_mean"], arrays["x_scale"]
         self.target_mean_, self.target_scale_ = arrays["target_mean"], arrays["target_scale"]
+
+
+class _IterationPrinter:
+    """L-BFGS-B callback printing each iteration's negative log-likelihood (verbose >= 2)."""
+
+    def __init__(self, start: float):
+        self.start, self.iteration = start, 0
+
+    def __call__(self, intermediate_result):
+        self.iteration += 1
+        print(f"GPR kernel fit iteration {self.iteration}, negative log-likelihood = "
+              f"{intermediate_result.fun:.6f}, elapsed {time.perf_counter() - self.start:.1f} s",
+              flush=True)

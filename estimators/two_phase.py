@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from sklearn.base import clone
 from sklearn.ensemble import RandomForestRegressor
@@ -11,7 +13,7 @@ from estimators.dnn import DNNCalibrator
 from estimators._forest import FlatForest
 from estimators._randomness import make_generator
 from estimators.realtime import ForestPredictor, SumPredictor
-from estimators._validation import check_positive_int
+from estimators._validation import check_positive_int, check_verbose
 
 _SEED_LIMIT = np.iinfo(np.int32).max
 
@@ -45,6 +47,10 @@ class TwoPhaseCalibrator(CalibratorBase):
         Seeds both phases.
     n_jobs : int or None, default=None
         Parallel jobs of the forest fit (scikit-learn's convention).
+    verbose : int, default=0
+        0: silent; 1 or more: one line on stdout at the end of each phase (elapsed time, and
+        the RMS of the phase-1 residual the forest learns), and the phase-1 network trains
+        with at least this `verbose` (its progress lines). It does not change the result.
 
     Attributes
     ----------
@@ -55,7 +61,8 @@ class TwoPhaseCalibrator(CalibratorBase):
     """
 
     def __init__(self, *, raw_columns=None, dnn=None, n_estimators=100, max_depth=None,
-                 min_samples_leaf=5, max_features=1.0, random_state=None, n_jobs=None):
+                 min_samples_leaf=5, max_features=1.0, random_state=None, n_jobs=None,
+                 verbose=0):
         self.raw_columns = raw_columns
         self.dnn = dnn
         self.n_estimators = n_estimators
@@ -64,6 +71,7 @@ class TwoPhaseCalibrator(CalibratorBase):
         self.max_features = max_features
         self.random_state = random_state
         self.n_jobs = n_jobs
+        self.verbose = verbose
 
     def _check_params(self):
         if self.dnn is not None:
@@ -77,21 +85,36 @@ class TwoPhaseCalibrator(CalibratorBase):
         check_positive_int(self.min_samples_leaf, "min_samples_leaf")
         if self.max_depth is not None:
             check_positive_int(self.max_depth, "max_depth")
+        check_verbose(self.verbose)
 
     def _fit_correction(self, X, correction):
         rng = make_generator(self.random_state)
-        template = DNNCalibrator() if self.dnn is None else self.dnn
+        template = self._network_template()
+        verbose, start = check_verbose(self.verbose), time.perf_counter()
         dnn = clone(template).set_params(random_state=int(rng.integers(_SEED_LIMIT)))
+        if verbose > check_verbose(dnn.verbose):
+            dnn.set_params(verbose=verbose)
         dnn.fit(X, correction)
         residual = correction - dnn.predict(X)
+        if verbose:
+            rms = ", ".join(f"{value:.6g}" for value in np.sqrt(np.mean(residual**2, axis=0)))
+            print(f"Phase 1: network trained in {time.perf_counter() - start:.1f} s; RMS of its "
+                  f"residual per output, in the units of y: {rms}", flush=True)
         forest = RandomForestRegressor(
             n_estimators=int(self.n_estimators), max_depth=self.max_depth,
             min_samples_leaf=int(self.min_samples_leaf), max_features=self.max_features,
             random_state=int(rng.integers(_SEED_LIMIT)), n_jobs=self.n_jobs)
         # a single-output forest expects a 1-D target (a column would warn)
         forest.fit(X, residual[:, 0] if residual.shape[1] == 1 else residual)
+        if verbose:
+            print(f"Phase 2: forest of {forest.n_estimators} trees fitted, elapsed "
+                  f"{time.perf_counter() - start:.1f} s", flush=True)
         self.dnn_ = dnn
         self.forest_ = FlatForest.from_sklearn(forest)
+
+    def _network_template(self) -> DNNCalibrator:
+        """The phase-1 network as configured (not fitted, not to be modified)."""
+        return DNNCalibrator() if self.dnn is None else self.dnn
 
     def _predict_correction(self, X):
         return self.dnn_.predict(X) + self.forest_.predict(X)
@@ -106,8 +129,7 @@ class TwoPhaseCalibrator(CalibratorBase):
         return arrays
 
     def _restore_fitted_arrays(self, arrays):
-        template = DNNCalibrator() if self.dnn is None else self.dnn
-        dnn = clone(template)
+        dnn = clone(self._network_template())
         dnn._set_fitted_layout(n_features_in=self.n_features_in_, n_outputs=self.n_outputs_,
                                raw_columns=None, y_is_1d=False)
         dnn._restore_fitted_arrays(

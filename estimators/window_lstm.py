@@ -2,22 +2,15 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from estimators import _lstm as lstm
-from estimators._base import CalibratorBase
-from estimators._randomness import make_generator
-from estimators.realtime import LSTMPredictor
+from estimators._network import NetworkCalibrator
 from estimators._standardization import Standardizer
-from estimators._validation import (
-    check_non_negative_float,
-    check_open_interval,
-    check_positive_int,
-)
+from estimators._validation import check_non_negative_float, check_positive_int
 from estimators._windows import stack_windows
+from estimators.realtime import LSTMPredictor
 
 
-class WindowLSTMCalibrator(CalibratorBase):
+class WindowLSTMCalibrator(NetworkCalibrator):
     """One-layer LSTM run over the last `window` rows of X; its last output is the correction.
 
     Hwang et al. (2020) fed a dVRK's recent commanded joint positions (the current one and 4
@@ -59,6 +52,9 @@ class WindowLSTMCalibrator(CalibratorBase):
     random_state : None, int, RandomState or Generator, default=None
     n_threads : int or None, default=None
         Torch threads during `fit` (None: torch's current setting); restored afterwards.
+    verbose : int, default=0
+        0: silent; 1: a line with the training loss (and validation loss), and the elapsed
+        time, on stdout every 10 epochs and on the first and last one; 2 or more: every epoch.
 
     Attributes
     ----------
@@ -74,66 +70,37 @@ class WindowLSTMCalibrator(CalibratorBase):
     def __init__(self, *, raw_columns=None, window=5, hidden_size=100, weight_l2=0.0,
                  learning_rate=1e-3, beta_1=0.9, beta_2=0.999, batch_size=128, max_epochs=30,
                  early_stopping=False, validation_fraction=0.1, n_iter_no_change=10, tol=1e-4,
-                 random_state=None, n_threads=None):
-        self.raw_columns = raw_columns
+                 random_state=None, n_threads=None, verbose=0):
+        super().__init__(
+            raw_columns=raw_columns, learning_rate=learning_rate, beta_1=beta_1, beta_2=beta_2,
+            batch_size=batch_size, max_epochs=max_epochs, early_stopping=early_stopping,
+            validation_fraction=validation_fraction, n_iter_no_change=n_iter_no_change,
+            tol=tol, random_state=random_state, n_threads=n_threads, verbose=verbose)
         self.window = window
         self.hidden_size = hidden_size
         self.weight_l2 = weight_l2
-        self.learning_rate = learning_rate
-        self.beta_1 = beta_1
-        self.beta_2 = beta_2
-        self.batch_size = batch_size
-        self.max_epochs = max_epochs
-        self.early_stopping = early_stopping
-        self.validation_fraction = validation_fraction
-        self.n_iter_no_change = n_iter_no_change
-        self.tol = tol
-        self.random_state = random_state
-        self.n_threads = n_threads
 
     def _check_params(self):
-        for name in ("window", "hidden_size", "batch_size", "max_epochs", "n_iter_no_change"):
-            check_positive_int(getattr(self, name), name)
+        check_positive_int(self.window, "window")
+        check_positive_int(self.hidden_size, "hidden_size")
         check_non_negative_float(self.weight_l2, "weight_l2")
-        check_non_negative_float(self.tol, "tol")
-        check_open_interval(self.learning_rate, "learning_rate", 0.0, np.inf)
-        check_open_interval(self.beta_1, "beta_1", 0.0, 1.0)
-        check_open_interval(self.beta_2, "beta_2", 0.0, 1.0)
-        check_open_interval(self.validation_fraction, "validation_fraction", 0.0, 1.0)
-        if self.n_threads is not None:
-            check_positive_int(self.n_threads, "n_threads")
+        super()._check_params()
 
-    def _fit_correction(self, X, correction):
+    def _train_network(self, inputs, targets, rng):
         # torch is needed for training only: prediction and real-time export stay numpy-only.
-        from estimators._lstm_training import LSTMTrainingConfig, train_lstm
-        from estimators._training_loop import EarlyStopping
+        from estimators._torch_training import train_lstm
 
-        x_scaler, target_scaler = Standardizer.fit_inputs(X), Standardizer.fit_targets(correction)
-        rng = make_generator(self.random_state)
-        initial = lstm.LSTMWeights.initial(X.shape[1], int(self.hidden_size),
-                                           correction.shape[1], rng)
-        stopping = (EarlyStopping(float(self.validation_fraction), int(self.n_iter_no_change),
-                                  float(self.tol)) if self.early_stopping else None)
-        config = LSTMTrainingConfig(
-            learning_rate=float(self.learning_rate), beta_1=float(self.beta_1),
-            beta_2=float(self.beta_2), weight_l2=float(self.weight_l2),
-            batch_size=int(self.batch_size), max_epochs=int(self.max_epochs),
-            early_stopping=stopping)
-        result = train_lstm(stack_windows(x_scaler.transform(X), int(self.window)),
-                            target_scaler.transform(correction), initial, config, rng,
+        initial = lstm.LSTMWeights.initial(inputs.shape[1], int(self.hidden_size),
+                                           targets.shape[1], rng)
+        result = train_lstm(stack_windows(inputs, int(self.window)), targets, initial,
+                            float(self.weight_l2), self._training_settings(), rng,
                             self.n_threads)
         self.weights_ = result.state
-        self.x_mean_, self.x_scale_ = x_scaler.mean, x_scaler.scale
-        self.target_mean_, self.target_scale_ = target_scaler.mean, target_scaler.scale
-        self.loss_curve_ = result.loss_curve
-        self.validation_loss_curve_ = result.validation_curve
-        self.n_epochs_ = len(result.loss_curve)
-        self.best_epoch_ = result.best_epoch
+        return result
 
-    def _predict_correction(self, X):
+    def _network_output(self, X):
         standardized = Standardizer(self.x_mean_, self.x_scale_).transform(X)
-        output = lstm.forward(stack_windows(standardized, int(self.window)), self.weights_)
-        return output * self.target_scale_ + self.target_mean_
+        return lstm.forward(stack_windows(standardized, int(self.window)), self.weights_)
 
     def _build_realtime(self):
         w = self.weights_
@@ -147,21 +114,9 @@ class WindowLSTMCalibrator(CalibratorBase):
             raw_index=self.raw_columns_,
         )
 
-    def _fitted_arrays(self):
-        arrays = {f"lstm.{name}": value for name, value in self.weights_.arrays().items()}
-        arrays.update(x_mean=self.x_mean_, x_scale=self.x_scale_,
-                      target_mean=self.target_mean_, target_scale=self.target_scale_,
-                      loss_curve=self.loss_curve_,
-                      validation_loss_curve=self.validation_loss_curve_,
-                      best_epoch=np.asarray(self.best_epoch_))
-        return arrays
+    def _network_arrays(self):
+        return {f"lstm.{name}": value for name, value in self.weights_.arrays().items()}
 
-    def _restore_fitted_arrays(self, arrays):
+    def _restore_network_arrays(self, arrays):
         self.weights_ = lstm.LSTMWeights(
             **{name[5:]: value for name, value in arrays.items() if name.startswith("lstm.")})
-        self.x_mean_, self.x_scale_ = arrays["x_mean"], arrays["x_scale"]
-        self.target_mean_, self.target_scale_ = arrays["target_mean"], arrays["target_scale"]
-        self.loss_curve_ = arrays["loss_curve"]
-        self.validation_loss_curve_ = arrays["validation_loss_curve"]
-        self.n_epochs_ = len(self.loss_curve_)
-        self.best_epoch_ = int(arrays["best_epoch"])

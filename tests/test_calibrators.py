@@ -239,3 +239,71 @@ def test_calibrators_work_inside_scikit_learn_model_selection(data):
     assert search.best_params_ == {"polynomialcalibrator__alpha": 0.0}
     scores = cross_val_score(make("dnn"), X, y, cv=KFold(3))
     assert scores.shape == (3,) and np.all(np.isfinite(scores))
+
+
+# --- progress (verbose) -------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", RANDOMIZED)
+def test_verbose_zero_prints_nothing_and_verbose_changes_no_result(data, name, capsys):
+    X, y = data
+    quiet = make(name).fit(X, y)
+    assert capsys.readouterr().out == ""
+    talkative = make(name).set_params(verbose=2).fit(X, y)
+    assert capsys.readouterr().out.strip()
+    np.testing.assert_array_equal(talkative.predict(X), quiet.predict(X))
+
+
+def test_verbose_network_prints_one_line_per_reported_epoch(data, capsys):
+    X, y = data
+    make("dnn").set_params(max_epochs=25, verbose=1).fit(X, y)
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split(",")[0] for line in lines] == [
+        "Epoch 1/25", "Epoch 10/25", "Epoch 20/25", "Epoch 25/25"]
+    assert all("loss = " in line and "elapsed" in line for line in lines)
+    make("window_lstm").set_params(max_epochs=4, verbose=2).fit(X, y)
+    assert len(capsys.readouterr().out.splitlines()) == 4
+
+
+def test_verbose_network_reports_validation_loss_and_early_stop(data, capsys):
+    X, y = data
+    dnn = make("dnn").set_params(max_epochs=500, early_stopping=True, n_iter_no_change=2,
+                                 tol=1e3, verbose=1).fit(X, y)
+    lines = capsys.readouterr().out.splitlines()
+    assert dnn.n_epochs_ == 3  # a gain of 1e3 never comes: stop after 2 epochs without one
+    assert all("validation loss = " in line for line in lines[:-1])
+    assert lines[-2].startswith("Epoch 3/500")
+    assert lines[-1] == ("Validation loss did not improve for 2 epochs: stopped after epoch 3, "
+                         f"keeping epoch {dnn.best_epoch_}.")
+
+
+def test_verbose_gpr_reports_the_optimizer_run_and_its_iterations(data, capsys):
+    X, y = data
+    make("gpr").set_params(verbose=1).fit(X, y)
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2
+    assert lines[0].startswith("GPR kernel fit on 60 points:") and "L-BFGS-B iterations" in lines[0]
+    assert lines[1].startswith("GPR posterior weights on 120 support points")
+    n_iterations = int(lines[0].split(": ")[1].split()[0])
+    make("gpr").set_params(verbose=2).fit(X, y)
+    lines = capsys.readouterr().out.splitlines()
+    assert sum("GPR kernel fit iteration" in line for line in lines) == n_iterations
+
+
+def test_verbose_two_phase_reports_both_phases_and_the_network(data, capsys):
+    X, y = data
+    make("two_phase").set_params(verbose=1).fit(X, y)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("Epoch 1/10")
+    assert lines[-2].startswith("Phase 1: network trained")
+    assert lines[-1].startswith("Phase 2: forest of 8 trees fitted")
+
+
+@pytest.mark.parametrize("name", RANDOMIZED)
+@pytest.mark.parametrize("verbose, error, message", [
+    (-1, ValueError, "verbose must be >= 0"),
+    (1.5, TypeError, "verbose must be an integer"),
+])
+def test_bad_verbose_is_named(data, name, verbose, error, message):
+    X, y = data
+    with pytest.raises(error, match=message):
+        make(name).set_params(verbose=verbose).fit(X[:20], y[:20])

@@ -27,7 +27,7 @@ from estimators import (
 )
 from estimators import _gaussian_process as gp
 from estimators._forest import FlatForest
-from estimators._mlp_training import TrainingConfig, _Network
+from estimators._torch_training import MLPSettings, TrainingSettings, _MLPTrainee
 from estimators._monomials import MonomialPlan
 from estimators.realtime import ForestPredictor
 
@@ -152,10 +152,11 @@ def test_dnn_hand_written_gradients_match_autograd(activation):
     weights = [rng.normal(size=(a, b)) * 0.5 for a, b in zip(sizes[:-1], sizes[1:])]
     biases = [rng.normal(size=b) * 0.1 for b in sizes[1:]]
     inputs, targets = rng.normal(size=(32, 4)), rng.normal(size=(32, 3))
-    config = TrainingConfig(activation=activation, kernel_l2=3e-3, kernel_l1=2e-3, bias_l2=1e-2,
-                            activity_l2=5e-3, learning_rate=1e-3, beta_1=0.9, beta_2=0.999,
-                            batch_size=32, max_epochs=1, early_stopping=None)
-    network = _Network(weights, biases, config, batch_size=32)
+    config = MLPSettings(activation=activation, kernel_l2=3e-3, kernel_l1=2e-3, bias_l2=1e-2,
+                         activity_l2=5e-3)
+    settings = TrainingSettings(learning_rate=1e-3, beta_1=0.9, beta_2=0.999, batch_size=32,
+                                max_epochs=1, early_stopping=None)
+    network = _MLPTrainee(weights, biases, config, settings, batch_size=32)
     network.optimizer.step = lambda: None  # keep the gradients, skip the update
     with torch.no_grad():
         network.step(torch.from_numpy(inputs), torch.from_numpy(targets), torch.arange(32))
@@ -253,7 +254,8 @@ def test_kernel_fit_raises_the_likelihood_and_gpr_fits_a_smooth_function():
     standardized, targets = StandardScaler().fit_transform(X), StandardScaler().fit_transform(y)
     initial = gp.KernelParameters(np.full(4, 2.0), 1.0, 0.1)
     with threadpool_limits(limits=1, user_api="blas"):
-        fitted = gp.optimize_kernel(standardized, targets, initial, (1e-2, 1e3), (1e-6, 1.0), 100)
+        fitted, _ = gp.optimize_kernel(standardized, targets, initial, (1e-2, 1e3), (1e-6, 1.0),
+                                       100)
     assert (gp.negative_log_likelihood(fitted.to_log_vector(), standardized, targets)[0]
             < gp.negative_log_likelihood(initial.to_log_vector(), standardized, targets)[0] - 10)
     assert GPRCalibrator(random_state=0, n_threads=1).fit(X, y).score(X, y) > 0.95
