@@ -30,50 +30,13 @@ from estimators._validation import (
 class NetworkCalibrator(CalibratorBase):
     """Base class of the torch-trained calibrators (not used directly).
 
-    Parameters
-    ----------
-    raw_columns : None, int or sequence of int
-        Columns of X holding the uncorrected value of each column of y (error mode).
-    learning_rate : float
-        Adam's step size.
-    beta_1, beta_2 : float
-        Adam's exponential decay rates of the first and second moment estimates.
-    batch_size : int
-        Rows per optimizer step.
-    max_epochs : int
-        Epochs to train (all of them unless early stopping ends training sooner).
-    early_stopping : bool
-        Hold out the last `validation_fraction` of the rows (in the given order), stop when
-        their loss has not improved by `tol` for `n_iter_no_change` epochs, and keep the best
-        epoch's weights.
-    validation_fraction : float
-    n_iter_no_change : int
-    tol : float
-        Improvement of the validation mean squared error (standardized targets) that counts.
-    random_state : None, int, RandomState or Generator
-        Seeds the initial weights and the batch order.
-    n_threads : int or None
-        Torch threads during `fit` (None: torch's current setting); restored afterwards.
-    verbose : int
-        0: silent; 1: a progress line (training and validation loss, elapsed time) on stdout
-        every 10 epochs and on the first and last one; 2 or more: every epoch. It does not
-        change the result.
-
-    Attributes
-    ----------
-    x_mean_, x_scale_ : ndarray, shape (n_features,)
-        Input standardization;
-        an input column that was constant in training has scale +inf and is ignored.
-    target_mean_, target_scale_ : ndarray, shape (n_outputs,)
-        Standardization of the learned correction.
-    loss_curve_ : ndarray, shape (n_epochs_,)
-        Training mean squared error per epoch (standardized targets).
-    validation_loss_curve_ : ndarray
-        Validation mean squared error per epoch (empty without early stopping).
-    n_epochs_ : int
-        Epochs run.
-    best_epoch_ : int
-        Epoch whose weights were kept.
+    The hyper-parameters it holds (`raw_columns`, `learning_rate`, `beta_1`, `beta_2`,
+    `batch_size`, `max_epochs`, `early_stopping`, `validation_fraction`, `n_iter_no_change`,
+    `tol`, `random_state`, `n_threads`, `verbose`) and the fitted attributes it sets (the
+    standardization `x_mean_`, `x_scale_`, `target_mean_`, `target_scale_` and the history
+    `loss_curve_`, `validation_loss_curve_`, `n_epochs_`, `best_epoch_`) are documented on
+    each network calibrator. Progress (`verbose`) is printed by `estimators._torch_training`
+    and changes no result.
     """
 
     def __init__(self, *, raw_columns, learning_rate, beta_1, beta_2, batch_size, max_epochs,
