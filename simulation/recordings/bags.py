@@ -21,6 +21,13 @@ simulator's bags and the robot's:
 The robot's other topics (``joint_enc`` raw counts, CRTK ``measured_js``) are neither written nor
 needed. Each message's bag time equals its header stamp. The sample time of a log is the header
 stamp (ROS time, so it must be >= 0 s).
+
+Reading checks every value against the arm's physical limits (``simulation.recordings.limits``):
+by default impossible samples are kept and marked (``RavenStateLog.valid``,
+``GroundTruthLog.valid``) with one warning per bag; ``on_invalid="drop"`` removes them,
+``on_invalid="raise"`` raises ``ImpossibleValueError``. A damaged structure (not a bag, a
+truncated bag, a missing topic or another message type, time running backwards, labels out of
+step) is a ``BagFormatError`` in every mode.
 """
 
 from __future__ import annotations
@@ -35,8 +42,21 @@ import numpy as np
 from rosbags.rosbag1 import Reader, ReaderError, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from simulation.recordings.limits import (
+    RecordingLimits,
+    check_on_invalid,
+    find_invalid,
+    resolve_invalid,
+    state_columns,
+)
+from simulation.recordings.ravenstate import (
+    GROUND_TRUTH_JOINTS,
+    RAVENSTATE_FIELDS,
+    GroundTruthLog,
+    RavenStateLog,
+    check_arm,
+)
 from simulation.recordings.tables import atomic_output
-from simulation.recordings.ravenstate import RAVENSTATE_FIELDS, GroundTruthLog, RavenStateLog, check_arm
 
 STATE_TOPIC = "/ravenstate"
 TRUTH_TOPIC = "/ext_jpos"
@@ -339,6 +359,7 @@ def _check_finite(values: np.ndarray, path: Path, topic: str, what: str) -> None
 
 
 def _state_from_messages(messages, path: Path, topic: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Stamps (ns) and SI fields; values are checked against the limits afterwards."""
     stamps = _checked_stamps(messages, lambda message: message.hdr.stamp, path, topic)
     published = {}
     for spec in RAVENSTATE_FIELDS:
@@ -347,20 +368,20 @@ def _state_from_messages(messages, path: Path, topic: str) -> tuple[np.ndarray, 
                               dtype=np.int64)
         else:
             values = np.array([getattr(message, spec.name) for message in messages])
-        _check_finite(values, path, topic, f"field {spec.name!r}")
         published[spec.name] = values
-    return stamps, si_fields(published)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return stamps, si_fields(published)
 
 
-def _truth_from_messages(messages, path: Path, topic: str) -> GroundTruthLog:
+def _truth_from_messages(messages, path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
+    """Times (s) and joints (M, 3); values are checked against the limits afterwards."""
     stamps = _checked_stamps(messages, lambda message: message.header.stamp, path, topic)
     for sample, message in enumerate(messages):
         if len(message.position) != 3:
             raise BagFormatError(f"{path}: topic {topic!r}: sample {sample} has {len(message.position)} "
                                  "positions, expected 3 (shoulder rad, elbow rad, insertion m)")
     joints = np.array([message.position for message in messages], dtype=np.float64)
-    _check_finite(joints, path, topic, "position")
-    return GroundTruthLog(stamps / _NANOSECONDS, joints)
+    return stamps / _NANOSECONDS, joints
 
 
 def _labels_from_messages(messages, state_stamps: np.ndarray, path: Path, topic: str) -> dict[str, np.ndarray]:
@@ -391,7 +412,8 @@ def _labels_from_messages(messages, state_stamps: np.ndarray, path: Path, topic:
 
 
 def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = STATE_TOPIC,
-             truth_topic: str = TRUTH_TOPIC, scenario_topic: str = SCENARIO_TOPIC
+             truth_topic: str = TRUTH_TOPIC, scenario_topic: str = SCENARIO_TOPIC,
+             on_invalid: str = "flag", limits: RecordingLimits | None = None
              ) -> tuple[RavenStateLog, GroundTruthLog]:
     """Read a RAVEN-II recording (this project's or a real robot's) into SI logs.
 
@@ -404,12 +426,20 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
     state_topic, truth_topic, scenario_topic : str
         Topic names, e.g. ``"/ravenstate_100hz"`` for a bag recorded from a throttled topic.
         The scenario topic is optional in the bag.
+    on_invalid : {"flag", "drop", "raise"}
+        What to do with samples holding values the robot cannot produce (outside the limits of
+        ``simulation.recordings.limits``, non-finite included): keep them with ``valid`` False
+        (default), remove them, or raise. "flag" and "drop" warn once
+        (``ImpossibleValueWarning``) naming the bag, the counts per topic and the first value.
+    limits : RecordingLimits, optional
+        Default: ``RecordingLimits.for_arm(arm)``.
 
     Returns
     -------
     state_log : RavenStateLog
-        Time = header stamps, s; labels from the scenario topic, or none.
+        Time = header stamps, s; labels from the scenario topic, or none; ``valid`` per sample.
     truth_log : GroundTruthLog
+        ``valid`` per sample.
 
     Raises
     ------
@@ -417,10 +447,14 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
         No such file.
     BagFormatError
         The bag is truncated or damaged, a topic is missing or of another type, time does not
-        increase, a value is not finite, or the labels do not match the robot-state samples; the
-        message names the file, the topic and the sample.
+        increase, or the labels do not match the robot-state samples; the message names the
+        file, the topic and the sample.
+    ImpossibleValueError
+        ``on_invalid="raise"`` and a sample holds an impossible value (naming the file, the
+        topic, the column, the sample, its time, value and limit).
     """
     check_arm(arm)
+    check_on_invalid(on_invalid)
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no bag file {path}")
@@ -434,11 +468,28 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
                              "may be repaired with 'rosbag reindex'") from error
     stamps, fields = _state_from_messages(state_messages, path, state_topic)
     labels = {} if scenario_messages is None else _labels_from_messages(scenario_messages, stamps, path, scenario_topic)
-    truth_log = _truth_from_messages(truth_messages, path, truth_topic)
+    truth_time, joints = _truth_from_messages(truth_messages, path, truth_topic)
+    state_time = stamps / _NANOSECONDS
+
+    state_found = find_invalid(state_time, state_columns(fields, arm), arm, limits)
+    truth_found = find_invalid(truth_time, {f"truth.{joint}": joints[:, j] for j, joint in enumerate(GROUND_TRUTH_JOINTS)},
+                               arm, limits)
+    resolve_invalid(path, [(f"topic {state_topic!r}", state_found), (f"topic {truth_topic!r}", truth_found)],
+                    on_invalid)
+    state_valid, truth_valid = ~state_found.mask, ~truth_found.mask
+    if on_invalid == "drop":
+        fields = {name: values[state_valid] for name, values in fields.items()}
+        labels = {name: values[state_valid] for name, values in labels.items()}
+        state_time, truth_time, joints = state_time[state_valid], truth_time[truth_valid], joints[truth_valid]
+        state_valid, truth_valid = state_valid[state_valid], truth_valid[truth_valid]
     try:
-        state_log = RavenStateLog(stamps / _NANOSECONDS, fields, labels, arm)
+        state_log = RavenStateLog(state_time, fields, labels, arm, state_valid)
     except ValueError as error:
         raise BagFormatError(f"{path}: topic {state_topic!r}: {error}") from error
+    try:
+        truth_log = GroundTruthLog(truth_time, joints, truth_valid)
+    except ValueError as error:
+        raise BagFormatError(f"{path}: topic {truth_topic!r}: {error}") from error
     return state_log, truth_log
 
 
@@ -453,7 +504,8 @@ def read_bag_folder(folder: str | os.PathLike, arm: str = "left", *, pattern: st
     pattern : str
         Glob of the bag files in ``folder``.
     **topics
-        ``state_topic``, ``truth_topic``, ``scenario_topic`` as in ``read_bag``.
+        ``state_topic``, ``truth_topic``, ``scenario_topic``, ``on_invalid``, ``limits`` as in
+        ``read_bag``.
 
     Returns
     -------
@@ -469,6 +521,7 @@ def read_bag_folder(folder: str | os.PathLike, arm: str = "left", *, pattern: st
         From the first bag that cannot be read (naming it).
     """
     folder = Path(folder)
+    check_on_invalid(topics.get("on_invalid", "flag"))
     if not folder.is_dir():
         raise FileNotFoundError(f"no folder {folder}")
     paths = sorted(folder.glob(pattern))
