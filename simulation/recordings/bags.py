@@ -407,7 +407,16 @@ def _labels_from_messages(messages, state_stamps: np.ndarray, path: Path, topic:
             dtype = np.dtype(match["dtype"])
         except TypeError as error:
             raise BagFormatError(f"{path}: topic {topic!r}: label {name!r} names an unknown dtype") from error
-        labels[match["key"]] = values[:, column].astype(dtype)
+        column_values = values[:, column]
+        if np.issubdtype(dtype, np.integer) or dtype == np.bool_:
+            whole = (column_values == np.round(column_values)) & (np.abs(column_values) <= _MAX_EXACT_LABEL)
+            if dtype == np.bool_:
+                whole &= (column_values == 0) | (column_values == 1)
+            if not np.all(whole):
+                raise BagFormatError(f"{path}: topic {topic!r}: label {name!r} at sample "
+                                     f"{int(np.flatnonzero(~whole)[0])} is not a {dtype.name} "
+                                     f"({column_values[~whole][0]!r})")
+        labels[match["key"]] = column_values.astype(dtype)
     return labels
 
 

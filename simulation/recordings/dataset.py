@@ -192,7 +192,9 @@ def _unflagged(frame: pd.DataFrame) -> pd.DataFrame:
     frame = frame.drop(columns=[VALID_COLUMN], errors="ignore")
     with np.errstate(invalid="ignore"):
         finite = np.isfinite(frame.select_dtypes(include=[np.number]).to_numpy(dtype=np.float64)).all(axis=1)
-    return frame.assign(**{VALID_COLUMN: finite})
+    frame = frame.copy()
+    frame[VALID_COLUMN] = finite
+    return frame
 
 
 @dataclass(frozen=True, eq=False)

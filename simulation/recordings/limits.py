@@ -308,7 +308,7 @@ class _Collector:
         self._first_key = None
 
     def add(self, column: str, bad: np.ndarray, values: np.ndarray, limit) -> None:
-        if not np.any(bad):
+        if not bad.any():
             return
         self.mask |= bad
         self.counts[column] = self.counts.get(column, 0) + int(bad.sum())
@@ -353,13 +353,21 @@ def _jumps(time: np.ndarray, values: np.ndarray, rate: float, tolerance: float, 
     ``reset[i]`` means sample i starts afresh (a new recording, a new encoder offset); non-finite
     samples are skipped (they are flagged as such).
     """
-    index = np.flatnonzero(np.isfinite(values))
     bad = np.zeros(values.size, dtype=bool)
-    if index.size < 2:
-        return bad
+    finite = np.isfinite(values)
+    if finite.all():
+        if np.all(np.abs(np.diff(values)) <= rate * np.abs(np.diff(time)) + tolerance):
+            return bad
+        index = np.arange(values.size)
+        boundary = reset.copy()
+        boundary[0] = True
+    else:
+        index = np.flatnonzero(finite)
+        if index.size < 2:
+            return bad
+        crossed = np.cumsum(reset)[index]
+        boundary = np.r_[True, np.diff(crossed) > 0]
     t, v = time[index], values[index]
-    crossed = np.cumsum(reset)[index]
-    boundary = np.r_[True, np.diff(crossed) > 0]
     forward = _scan(t, v, rate, tolerance, boundary)
     backward = _scan(t[::-1], v[::-1], rate, tolerance, np.r_[True, boundary[1:][::-1]])[::-1]
     bad[index] = forward & backward
@@ -414,8 +422,11 @@ def find_invalid(time, columns: Mapping[str, np.ndarray], arm: str = "left",
     InvalidSamples
     """
     check_arm(arm)
-    lim = limits or default_limits(arm)
-    time = np.asarray(time, dtype=np.float64)
+    with np.errstate(invalid="ignore", over="ignore"):
+        return _find_invalid(np.asarray(time, dtype=np.float64), columns, arm, limits or default_limits(arm))
+
+
+def _find_invalid(time: np.ndarray, columns, arm: str, lim: RecordingLimits) -> InvalidSamples:
     n = time.size
     out = _Collector(time, ["time", *columns])
     restart = _check_time(out, time, lim)
@@ -429,7 +440,7 @@ def find_invalid(time, columns: Mapping[str, np.ndarray], arm: str = "left",
         values = np.asarray(raw)
         if values.dtype == np.bool_ or not np.issubdtype(values.dtype, np.number):
             continue
-        values = values.astype(np.float64)
+        values = values.astype(np.float64, copy=False)
         foreign = column.endswith(suffix)
         base = column[: -len(suffix)] if foreign else column
         field, _, entry = base.partition(".")
@@ -437,9 +448,8 @@ def find_invalid(time, columns: Mapping[str, np.ndarray], arm: str = "left",
             continue
         finite = np.isfinite(values)
         out.add(column, ~finite, values, "finite")
-        slot = _slot_of(base)
-        with np.errstate(invalid="ignore"):
-            _check_column(out, column, field, entry, slot, values, finite, foreign, homed, lim, arm, other, columns)
+        _check_column(out, column, field, entry, _slot_of(base), values, finite, foreign, homed, lim, arm, other,
+                      columns)
 
     _check_coupling(out, columns, lim)
     _check_rotations(out, columns, suffix)
@@ -449,7 +459,7 @@ def find_invalid(time, columns: Mapping[str, np.ndarray], arm: str = "left",
 
 def _bound(out, column, values, finite, lower, upper, unit, what):
     bad = finite & ((values < lower) | (values > upper))
-    out.add(column, bad, values, _range(lower, upper, unit, what))
+    out.add(column, bad, values, lambda i: _range(lower, upper, unit, what))
 
 
 def _positions(out, column, values, finite, slot, foreign, homed, lower, upper, travel, unit):
@@ -457,9 +467,9 @@ def _positions(out, column, values, finite, slot, foreign, homed, lower, upper, 
         _bound(out, column, values, finite, -travel[slot], travel[slot], unit, "travel")
         return
     bad_homed = finite & homed & ((values < lower[slot]) | (values > upper[slot]))
-    out.add(column, bad_homed, values, _range(lower[slot], upper[slot], unit, "range once homed"))
+    out.add(column, bad_homed, values, lambda i: _range(lower[slot], upper[slot], unit, "range once homed"))
     bad_travel = finite & ~homed & (np.abs(values) > travel[slot])
-    out.add(column, bad_travel, values, _range(-travel[slot], travel[slot], unit, "travel before homing"))
+    out.add(column, bad_travel, values, lambda i: _range(-travel[slot], travel[slot], unit, "travel before homing"))
 
 
 def _check_column(out, column, field, entry, slot, values, finite, foreign, homed, lim, arm, other, columns):
@@ -562,7 +572,7 @@ def _check_rotations(out, columns, suffix) -> None:
             with np.errstate(invalid="ignore", over="ignore"):
                 error = np.abs(matrices @ matrices.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
             bad = np.isfinite(error) & (error > 1e-3) & ~absent
-            out.add(f"{field}.R00{tail}", bad, error, "orthonormal within 1e-3 (or all zero)")
+            out.add(f"{field}{tail}", bad, error, "R R^T = I within 1e-3 (or all zero)")
 
 
 def _check_jumps(out, time, columns, lim: RecordingLimits, restart: np.ndarray) -> None:
