@@ -295,6 +295,19 @@ def test_broken_bags_are_errors_in_every_mode(logs, tmp_path, mode):
     for path in (truncated, garbage):
         with pytest.raises(BagFormatError, match=re.escape(path.name)):
             read_bag(path, on_invalid=mode)
+    # the readable part of the cut bag: the last whole message, its topic, sample and time
+    with pytest.raises(BagFormatError) as caught:
+        read_bag(truncated, on_invalid=mode)
+    where = re.search(r"breaks off after sample (\d+) of topic '(/\w+)' \(t = ([0-9.]+) s\); whole messages per "
+                      r"topic: '/ext_jpos' (\d+), '/ravenstate' (\d+), '/scenario' (\d+)", str(caught.value))
+    assert where is not None, str(caught.value)
+    sample, topic, time = int(where[1]), where[2], float(where[3])
+    n_truth, n_state = int(where[4]), int(where[5])
+    assert 0 < n_state < len(state) and 0 < n_truth < len(truth)
+    expected_time = truth.time[sample] if topic == "/ext_jpos" else state.time[sample]
+    assert time == pytest.approx(expected_time, abs=1e-6)
+    # messages are written in time order: the readable part is a prefix of both logs
+    assert state.time[n_state - 1] <= time + 1e-9 and truth.time[n_truth - 1] <= time + 1e-9
 
 
 # ---------------------------------------------------------------------------------------------

@@ -32,9 +32,11 @@ step) is a ``BagFormatError`` in every mode.
 
 from __future__ import annotations
 
+import bz2
 import functools
 import os
 import re
+import struct
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
@@ -420,6 +422,84 @@ def _labels_from_messages(messages, state_stamps: np.ndarray, path: Path, topic:
     return labels
 
 
+_BAG_MAGIC = b"#ROSBAG V2.0\n"
+_OP_MESSAGE, _OP_CHUNK, _OP_CONNECTION = 0x02, 0x05, 0x07
+
+
+def _record_fields(header: bytes) -> dict[str, bytes] | None:
+    """The ``name=value`` fields of a ROS1 bag record header, or None if it is damaged."""
+    fields, offset = {}, 0
+    while offset + 4 <= len(header):
+        (size,) = struct.unpack_from("<I", header, offset)
+        entry = header[offset + 4: offset + 4 + size]
+        if len(entry) != size or b"=" not in entry:
+            return None
+        name, value = entry.split(b"=", 1)
+        fields[name.decode("latin-1")] = value
+        offset += 4 + size
+    return fields if offset == len(header) else None
+
+
+def _records(data: bytes, offset: int = 0):
+    """Complete records ``(op, header fields, payload)`` from ``offset`` on, then for a record cut
+    short ``(op, fields, partial payload)`` once with ``op`` negated; stops at damage."""
+    while offset + 4 <= len(data):
+        (header_size,) = struct.unpack_from("<I", data, offset)
+        if offset + 8 + header_size > len(data):
+            return
+        fields = _record_fields(data[offset + 4: offset + 4 + header_size])
+        if fields is None or len(fields.get("op", b"")) != 1:
+            return
+        (payload_size,) = struct.unpack_from("<I", data, offset + 4 + header_size)
+        start = offset + 8 + header_size
+        payload = data[start: start + payload_size]
+        op = fields["op"][0]
+        if len(payload) < payload_size:
+            yield -op, fields, payload
+            return
+        yield op, fields, payload
+        offset = start + payload_size
+
+
+def _chunk_content(fields: dict[str, bytes], payload: bytes) -> bytes:
+    """The records of a (possibly cut) chunk; an unknown compression reads as empty."""
+    compression = fields.get("compression", b"none")
+    if compression == b"none":
+        return payload
+    if compression == b"bz2":
+        try:
+            return bz2.BZ2Decompressor().decompress(payload)
+        except (OSError, ValueError, EOFError):
+            return b""
+    return b""
+
+
+def _readable_extent(path: Path) -> str:
+    """Where an unindexed (truncated) bag stops: topic, sample and time of the last whole message."""
+    data = path.read_bytes()
+    if not data.startswith(_BAG_MAGIC):
+        return "it does not start as a ROS1 bag (version 2.0)"
+    topics: dict[bytes, str] = {}
+    counts: dict[str, int] = {}
+    last = None
+    for op, fields, payload in _records(data, len(_BAG_MAGIC)):
+        if abs(op) != _OP_CHUNK:
+            continue
+        for inner_op, inner_fields, _ in _records(_chunk_content(fields, payload)):
+            if inner_op == _OP_CONNECTION and "conn" in inner_fields:
+                topics[inner_fields["conn"]] = inner_fields.get("topic", b"?").decode("latin-1", "replace")
+            elif inner_op == _OP_MESSAGE and "conn" in inner_fields and len(inner_fields.get("time", b"")) == 8:
+                topic = topics.get(inner_fields["conn"], "?")
+                counts[topic] = counts.get(topic, 0) + 1
+                seconds, nanoseconds = struct.unpack("<II", inner_fields["time"])
+                last = (topic, counts[topic] - 1, seconds + nanoseconds / _NANOSECONDS)
+    if last is None:
+        return "no whole message is readable"
+    whole = ", ".join(f"{topic!r} {count}" for topic, count in sorted(counts.items()))
+    return (f"it breaks off after sample {last[1]} of topic {last[0]!r} (t = {last[2]:.6f} s); "
+            f"whole messages per topic: {whole}")
+
+
 def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = STATE_TOPIC,
              truth_topic: str = TRUTH_TOPIC, scenario_topic: str = SCENARIO_TOPIC,
              on_invalid: str = "flag", limits: RecordingLimits | None = None
@@ -457,7 +537,8 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
     BagFormatError
         The bag is truncated or damaged, a topic is missing or of another type, time does not
         increase, or the labels do not match the robot-state samples; the message names the
-        file, the topic and the sample.
+        file, the topic and the sample (for a bag cut short, the last whole message of the
+        readable part: its topic, sample index and time).
     ImpossibleValueError
         ``on_invalid="raise"`` and a sample holds an impossible value (naming the file, the
         topic, the column, the sample, its time, value and limit).
@@ -473,8 +554,12 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
             truth_messages = _topic_messages(reader, path, truth_topic, JOINT_STATE_MSGTYPE, required=True)
             scenario_messages = _topic_messages(reader, path, scenario_topic, JOINT_STATE_MSGTYPE, required=False)
     except ReaderError as error:
-        raise BagFormatError(f"{path}: not a readable ROS1 bag ({error}); a bag cut short by a crash "
-                             "may be repaired with 'rosbag reindex'") from error
+        try:
+            extent = _readable_extent(path)
+        except (OSError, MemoryError):
+            extent = "its content cannot be scanned"
+        raise BagFormatError(f"{path}: not a readable ROS1 bag ({error}); {extent}. A bag cut short by a "
+                             "crash may be repaired with 'rosbag reindex'") from error
     stamps, fields = _state_from_messages(state_messages, path, state_topic)
     labels = {} if scenario_messages is None else _labels_from_messages(scenario_messages, stamps, path, scenario_topic)
     truth_time, joints = _truth_from_messages(truth_messages, path, truth_topic)
