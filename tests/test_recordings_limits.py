@@ -1,5 +1,6 @@
 """Recordings checked against the arm's physical limits: flagged, dropped or refused."""
 
+import contextlib
 import re
 import warnings
 
@@ -53,11 +54,11 @@ def truth_columns(truth):
     return {f"truth.{joint}": truth.joints[:, j] for j, joint in enumerate(GROUND_TRUTH_JOINTS)}
 
 
+@contextlib.contextmanager
 def no_warning():
-    context = warnings.catch_warnings()
-    context.__enter__()
-    warnings.simplefilter("error", ImpossibleValueWarning)
-    return context
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ImpossibleValueWarning)
+        yield
 
 
 # ---------------------------------------------------------------------------------------------
@@ -99,8 +100,7 @@ def test_clean_simulated_recording_has_no_flag_through_every_reader(logs, datase
     assert set(state.fields["runlevel"]) == {1, 3}  # homing and operating samples both checked
     assert find_invalid(state.time, state_columns(state.fields, "left"), "left").count == 0
     assert find_invalid(truth.time, truth_columns(truth), "left").count == 0
-    context = no_warning()
-    try:
+    with no_warning():
         bag = write_bag(tmp_path / "clean.bag", state, truth)
         state_back, truth_back = read_bag(bag)
         assert state_back.valid.all() and truth_back.valid.all()
@@ -108,8 +108,6 @@ def test_clean_simulated_recording_has_no_flag_through_every_reader(logs, datase
                        lambda: CalibrationDataset.read_csv(dataset.to_csv(tmp_path / "clean.csv"))):
             back = reader()
             assert back.n_invalid == 0 and back.valid_mask().all() and len(back) == len(dataset)
-    finally:
-        context.__exit__(None, None, None)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -131,6 +129,7 @@ KINDS = [
     ("mpos.shoulder", lambda v: v + 60.0, r"\|jump\| <= .* rad/s x elapsed time"),
     ("encVals.elbow", lambda v: v + 2**24, r"\|jump\| <= .* count/s"),
     ("jpos.z_ins", lambda v: v + 0.004, r"cable coupling of mpos"),
+    ("mpos.wrist", lambda v: v + 0.5, r"moves with encVals\.wrist within 2 counts"),
     ("tau.elbow", 1.0e6, r"\[-30\.625, 30\.625\] N m \(stall torque\)"),
     ("dac_val.wrist", 4000, r"\[-3000, 3000\] count \(DAC clip\)"),
     ("mvel.grasp1", 2000.0, r"rad/s \(no-load speed\)"),
@@ -210,11 +209,8 @@ def test_flags_survive_files_and_select(dataset, tmp_path):
     # a row marked invalid in the file stays invalid even if its values look fine (no new warning)
     marked = dataset.table.assign(**{VALID_COLUMN: np.arange(len(dataset)) != 5})
     CalibrationDataset(marked, "left").to_parquet(tmp_path / "marked.parquet")
-    context = no_warning()
-    try:
+    with no_warning():
         back = CalibrationDataset.read_parquet(tmp_path / "marked.parquet")
-    finally:
-        context.__exit__(None, None, None)
     assert np.flatnonzero(~back.valid_mask()).tolist() == [5]
     assert len(back.select(back.valid_mask())) == len(dataset) - 1
 

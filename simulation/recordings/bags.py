@@ -553,12 +553,15 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
             state_messages = _topic_messages(reader, path, state_topic, STATE_MSGTYPE, required=True)
             truth_messages = _topic_messages(reader, path, truth_topic, JOINT_STATE_MSGTYPE, required=True)
             scenario_messages = _topic_messages(reader, path, scenario_topic, JOINT_STATE_MSGTYPE, required=False)
-    except ReaderError as error:
+    except (BagFormatError, PermissionError, IsADirectoryError):
+        raise
+    except Exception as error:  # a damaged index makes rosbags fail in many ways, ReaderError or not
         try:
             extent = _readable_extent(path)
-        except (OSError, MemoryError):
+        except (OSError, MemoryError, ValueError, struct.error):
             extent = "its content cannot be scanned"
-        raise BagFormatError(f"{path}: not a readable ROS1 bag ({error}); {extent}. A bag cut short by a "
+        detail = str(error) if isinstance(error, ReaderError) else f"{type(error).__name__}: {error}"
+        raise BagFormatError(f"{path}: not a readable ROS1 bag ({detail}); {extent}. A bag cut short by a "
                              "crash may be repaired with 'rosbag reindex'") from error
     stamps, fields = _state_from_messages(state_messages, path, state_topic)
     labels = {} if scenario_messages is None else _labels_from_messages(scenario_messages, stamps, path, scenario_topic)
@@ -566,8 +569,8 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
     state_time = stamps / _NANOSECONDS
 
     state_found = find_invalid(state_time, state_columns(fields, arm), arm, limits)
-    truth_found = find_invalid(truth_time, {f"truth.{joint}": joints[:, j] for j, joint in enumerate(GROUND_TRUTH_JOINTS)},
-                               arm, limits)
+    truth_columns = {f"truth.{joint}": joints[:, j] for j, joint in enumerate(GROUND_TRUTH_JOINTS)}
+    truth_found = find_invalid(truth_time, truth_columns, arm, limits)
     resolve_invalid(path, [(f"topic {state_topic!r}", state_found), (f"topic {truth_topic!r}", truth_found)],
                     on_invalid)
     state_valid, truth_valid = ~state_found.mask, ~truth_found.mask

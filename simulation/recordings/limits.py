@@ -43,6 +43,7 @@ import functools
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from types import MappingProxyType
 
 import numpy as np
 
@@ -106,7 +107,34 @@ class RecordingLimits:
 
     Slots are ``ravenstate.DOF_NAMES`` (shoulder, elbow, z_ins, no_connection, tool_rot, wrist,
     grasp1, grasp2); the unused no_connection slot gets the widest bound of the others. Build it
-    with :meth:`for_arm`; the fields are documented there.
+    with :meth:`for_arm`, which documents the choices and margins.
+
+    Attributes
+    ----------
+    arm : str
+    joint_lower, joint_upper : (8,) joint range once homed, rad (m for z_ins): controller limits,
+        hard stops and home pose, widened by the margins.
+    joint_travel : (8,) bound on ``|jpos|`` before homing (positions from power-on offsets).
+    motor_lower, motor_upper, motor_travel : (8,) the same for motor positions, rad, through the
+        inverse cable coupling and the transmission ratios (the tool motors also turn with the
+        insertion motor, ``tool_gb_ratio``).
+    motor_speed : (8,) largest motor speed, rad/s: no-load speed (RE40 / RE30) times
+        ``1 + speed_margin``.
+    joint_speed : (8,) largest joint speed, rad/s (m/s for z_ins), from ``motor_speed``.
+    dac_max : (8,) the controller's DAC clip, counts (``RavenConstants.dac_max``).
+    torque_max : (8,) stall torque at the gearbox output, N m.
+    grasp_max : bound on ``grasp_d`` (sum of the jaws' desired angles), rad.
+    counts_per_rad : motor encoder counts per motor radian.
+    transmission_ratio : (8,) motor rad per joint rad (per m for z_ins); 1 in the unused slot.
+    coupling : (3, 3) the controller's forward cable coupling ``A`` of joints 1-3.
+    coupling_tolerance : (3,) largest ``|jpos - A @ (mpos / tr)|``, rad, rad, m.
+    workspace_radius : bound on each tool-position coordinate, m (``WORKSPACE_RADIUS``).
+    tool_speed, tool_rate : bounds on the tool twist's linear (m/s) and angular (rad/s) entries:
+        ``workspace_radius`` times the sum of the revolute joint speeds plus the insertion
+        speed, and that sum.
+    servo_period : the controller's tick, s; two samples are at least half a tick apart.
+    max_log_period : longest median sample interval of a log, s.
+    serials : the arms' serial numbers (``ravenstate.type``).
     """
 
     arm: str
@@ -130,7 +158,17 @@ class RecordingLimits:
     tool_rate: float
     servo_period: float
     max_log_period: float
-    serials: Mapping[str, int] = field(default_factory=lambda: dict(ARM_SERIAL))
+    serials: Mapping[str, int] = field(default_factory=lambda: MappingProxyType(dict(ARM_SERIAL)))
+
+    def __post_init__(self) -> None:
+        check_arm(self.arm)
+        for name, value in vars(self).items():
+            if isinstance(value, np.ndarray):
+                value = np.array(value, dtype=np.float64)
+                if not np.all(np.isfinite(value)):
+                    raise ValueError(f"RecordingLimits.{name} must be finite")
+                value.setflags(write=False)
+                object.__setattr__(self, name, value)
 
     @classmethod
     def for_arm(cls, arm: str = "left", constants: RavenConstants | None = None,
@@ -453,7 +491,7 @@ def _find_invalid(time: np.ndarray, columns, arm: str, lim: RecordingLimits) -> 
 
     _check_coupling(out, columns, lim)
     _check_rotations(out, columns, suffix)
-    _check_jumps(out, time, columns, lim, restart)
+    _check_jumps(out, time, columns, lim, restart, suffix)
     return out.result()
 
 
@@ -530,9 +568,10 @@ def _check_column(out, column, field, entry, slot, values, finite, foreign, home
         _bound(out, column, values, finite, -lim.torque_max[slot], lim.torque_max[slot], "N m", "stall torque")
 
 
-def _arm_block(columns, field, names=DOF_NAMES):
+def _arm_blocks(columns, field, names, tail=""):
+    """Columns ``<field>.<name><tail>`` as an (N, len(names)) array, or None if one is missing."""
     try:
-        return np.column_stack([np.asarray(columns[f"{field}.{name}"], dtype=np.float64) for name in names])
+        return np.column_stack([np.asarray(columns[f"{field}.{name}{tail}"], dtype=np.float64) for name in names])
     except KeyError:
         return None
 
@@ -540,7 +579,7 @@ def _arm_block(columns, field, names=DOF_NAMES):
 def _check_coupling(out, columns, lim: RecordingLimits) -> None:
     names = DOF_NAMES[:_POSITIONING]
     for joint_field, motor_field in (("jpos", "mpos"), ("jpos_d", "mpos_d")):
-        joints, motors = _arm_block(columns, joint_field, names), _arm_block(columns, motor_field, names)
+        joints, motors = _arm_blocks(columns, joint_field, names), _arm_blocks(columns, motor_field, names)
         if joints is None or motors is None:
             continue
         expected = (motors / lim.transmission_ratio[:_POSITIONING]) @ lim.coupling.T
@@ -558,13 +597,7 @@ def _check_rotations(out, columns, suffix) -> None:
     entries = [f"R{row}{col}" for row in range(3) for col in range(3)]
     for field in ("ori", "ori_d"):
         for tail in ("", suffix):
-            block = _arm_block(columns, field, entries) if not tail else None
-            if tail:
-                try:
-                    block = np.column_stack([np.asarray(columns[f"{field}.{e}{tail}"], dtype=np.float64)
-                                             for e in entries])
-                except KeyError:
-                    block = None
+            block = _arm_blocks(columns, field, entries, tail)
             if block is None:
                 continue
             matrices = block.reshape(-1, 3, 3)
@@ -575,33 +608,52 @@ def _check_rotations(out, columns, suffix) -> None:
             out.add(f"{field}{tail}", bad, error, "R R^T = I within 1e-3 (or all zero)")
 
 
-def _check_jumps(out, time, columns, lim: RecordingLimits, restart: np.ndarray) -> None:
-    offsets = _arm_block(columns, "encoffsets")
-    reset = restart.copy()
-    if offsets is not None:
-        with np.errstate(invalid="ignore"):
-            reset[1:] |= np.any(offsets[1:] != offsets[:-1], axis=1)
+def _check_jumps(out, time, columns, lim: RecordingLimits, restart: np.ndarray, suffix: str) -> None:
+    """Jumps farther than the motors can move, per arm; and motor positions that move unlike their
+    encoders (``mpos`` is the encoder count less the homing offset, over counts per radian)."""
     count = 2.0 / lim.counts_per_rad
-    checks = [
-        ("mpos", DOF_NAMES, lim.motor_speed, np.full(_N_SLOTS, count), reset, "rad"),
-        ("encVals", DOF_NAMES, lim.motor_speed * lim.counts_per_rad, np.full(_N_SLOTS, 2.0), restart, "count"),
-        ("jpos", DOF_NAMES, lim.joint_speed, count / lim.transmission_ratio * 4.0, reset, None),
-        ("truth", GROUND_TRUTH_JOINTS, lim.joint_speed[:3], np.full(3, 1e-6), restart, None),
-    ]
-    for field, names, rate, tolerance, reset_here, unit in checks:
-        block = _arm_block(columns, field, names)
-        if block is None or block.shape[0] < 2:
-            continue
-        with np.errstate(invalid="ignore"):
+    for tail in ("", suffix):
+        offsets = _arm_blocks(columns, "encoffsets", DOF_NAMES, tail)
+        reset = restart.copy()
+        if offsets is not None:
+            reset[1:] |= np.any(offsets[1:] != offsets[:-1], axis=1)
+        checks = [
+            ("mpos", DOF_NAMES, lim.motor_speed, np.full(_N_SLOTS, count), reset, "rad"),
+            ("encVals", DOF_NAMES, lim.motor_speed * lim.counts_per_rad, np.full(_N_SLOTS, 2.0), restart, "count"),
+            ("jpos", DOF_NAMES, lim.joint_speed, count / lim.transmission_ratio * 4.0, reset, None),
+        ]
+        if not tail:
+            checks.append(("truth", GROUND_TRUTH_JOINTS, lim.joint_speed[:3], np.full(3, 1e-6), restart, None))
+        for field, names, rate, tolerance, reset_here, unit in checks:
+            block = _arm_blocks(columns, field, names, tail)
+            if block is None or block.shape[0] < 2:
+                continue
             scale = np.max(np.where(np.isfinite(block), np.abs(block), 0.0), axis=0)
-        # float32 publication rounds values by a relative 6e-8
-        bad = np.column_stack([_jumps(time, block[:, j], rate[j], tolerance[j] + 1e-6 * scale[j], reset_here)
-                               for j in range(len(names))])
-        for j, name in enumerate(names):
-            u = unit or ("m" if j == 2 else "rad")
-            out.add(f"{field}.{name}", bad[:, j], block[:, j],
-                    lambda i, j=j, u=u, rate=rate: f"|jump| <= {rate[j]:.6g} {u}/s x elapsed time "
-                                                   "(motor no-load speed)")
+            # float32 publication rounds values by a relative 6e-8
+            bad = np.column_stack([_jumps(time, block[:, j], rate[j], tolerance[j] + 1e-6 * scale[j], reset_here)
+                                   for j in range(len(names))])
+            for j, name in enumerate(names):
+                u = unit or ("m" if j == 2 else "rad")
+                out.add(f"{field}.{name}{tail}", bad[:, j], block[:, j],
+                        lambda i, j=j, u=u, rate=rate: f"|jump| <= {rate[j]:.6g} {u}/s x elapsed time "
+                                                       "(motor no-load speed)")
+        motors, counts = _arm_blocks(columns, "mpos", DOF_NAMES, tail), _arm_blocks(columns, "encVals", DOF_NAMES, tail)
+        if motors is None or counts is None or motors.shape[0] < 2:
+            continue
+        # a sample whose steps to both neighbours disagree; differences cancel the homing offset,
+        # magnitudes the encoder's sign
+        scale = np.max(np.where(np.isfinite(motors), np.abs(motors), 0.0), axis=0)
+        tolerance = 2.0 + 1e-6 * scale * lim.counts_per_rad
+        moved = np.abs(np.diff(motors, axis=0)) * lim.counts_per_rad
+        disagree = np.abs(moved - np.abs(np.diff(counts, axis=0))) > tolerance
+        disagree &= ~reset[1:, None]
+        before = np.vstack([disagree[:1], disagree])
+        after = np.vstack([disagree, disagree[-1:]])
+        bad = before & after
+        for j, name in enumerate(DOF_NAMES):
+            out.add(f"mpos.{name}{tail}", bad[:, j], motors[:, j],
+                    lambda i, j=j: f"moves with encVals.{DOF_NAMES[j]}{tail} within 2 counts "
+                                   f"({lim.counts_per_rad:.6g} counts/rad)")
 
 
 # ---------------------------------------------------------------------------------------------
