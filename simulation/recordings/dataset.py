@@ -315,11 +315,14 @@ class CalibrationDataset:
         -------
         CalibrationDataset
         """
+        return self._check(on_invalid, source, limits, stacklevel=4)
+
+    def _check(self, on_invalid: str, source, limits: RecordingLimits | None, stacklevel: int) -> CalibrationDataset:
         check_on_invalid(on_invalid)
         table = self.table
         found = find_invalid(table[TIME_COLUMN].to_numpy(), {c: table[c].to_numpy() for c in table.columns},
                              self.arm, limits)
-        resolve_invalid(source, [("", found)], on_invalid)
+        resolve_invalid(source, [("", found)], on_invalid, stacklevel=stacklevel)
         valid = self.valid_mask() & ~found.mask
         if on_invalid == "drop":
             return self.select(valid)
@@ -483,7 +486,7 @@ class CalibrationDataset:
                                         self.n_dropped_outside, self.n_dropped_in_gaps, self.max_gap)
         else:
             marked = self
-        return marked.check(on_invalid, source=str(path), limits=limits)
+        return marked._check(on_invalid, str(path), limits, stacklevel=5)
 
 
 # ---------------------------------------------------------------------------------------------

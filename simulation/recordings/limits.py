@@ -392,7 +392,7 @@ def _jumps(time: np.ndarray, values: np.ndarray, rate: float, tolerance: float, 
     samples are skipped (they are flagged as such).
     """
     bad = np.zeros(values.size, dtype=bool)
-    finite = np.isfinite(values)
+    finite = np.isfinite(values) & np.isfinite(time)
     if finite.all():
         if np.all(np.abs(np.diff(values)) <= rate * np.abs(np.diff(time)) + tolerance):
             return bad
