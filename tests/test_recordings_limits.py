@@ -257,7 +257,8 @@ def test_non_finite_and_other_arm_values_in_a_bag_are_flagged(logs, tmp_path):
     state, truth = logs
     valid = np.ones(len(state), dtype=bool)
     valid[7] = False
-    poisoned = _with_fields(state, valid, tau=((7, 3 + 1), np.nan), dac_val=((9, 8 + 1), 30000))
+    # slot 4 is the left arm's tool_rot, slot 9 the right arm's elbow (an arm not in this log)
+    poisoned = _with_fields(state, valid, tau=((7, 4), np.nan), dac_val=((9, 9), 30000))
     joints = truth.joints.copy()
     joints[42, 1] = np.inf
     truth_valid = np.arange(len(truth)) != 42
