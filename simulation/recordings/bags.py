@@ -21,13 +21,22 @@ simulator's bags and the robot's:
 The robot's other topics (``joint_enc`` raw counts, CRTK ``measured_js``) are neither written nor
 needed. Each message's bag time equals its header stamp. The sample time of a log is the header
 stamp (ROS time, so it must be >= 0 s).
+
+Reading checks every value against the arm's physical limits (``simulation.recordings.limits``):
+by default impossible samples are kept and marked (``RavenStateLog.valid``,
+``GroundTruthLog.valid``) with one warning per bag; ``on_invalid="drop"`` removes them,
+``on_invalid="raise"`` raises ``ImpossibleValueError``. A damaged structure (not a bag, a
+truncated bag, a missing topic or another message type, time running backwards, labels out of
+step) is a ``BagFormatError`` in every mode.
 """
 
 from __future__ import annotations
 
+import bz2
 import functools
 import os
 import re
+import struct
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
@@ -35,8 +44,21 @@ import numpy as np
 from rosbags.rosbag1 import Reader, ReaderError, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from simulation.recordings.limits import (
+    RecordingLimits,
+    check_on_invalid,
+    find_invalid,
+    resolve_invalid,
+    state_columns,
+)
+from simulation.recordings.ravenstate import (
+    GROUND_TRUTH_JOINTS,
+    RAVENSTATE_FIELDS,
+    GroundTruthLog,
+    RavenStateLog,
+    check_arm,
+)
 from simulation.recordings.tables import atomic_output
-from simulation.recordings.ravenstate import RAVENSTATE_FIELDS, GroundTruthLog, RavenStateLog, check_arm
 
 STATE_TOPIC = "/ravenstate"
 TRUTH_TOPIC = "/ext_jpos"
@@ -339,6 +361,7 @@ def _check_finite(values: np.ndarray, path: Path, topic: str, what: str) -> None
 
 
 def _state_from_messages(messages, path: Path, topic: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Stamps (ns) and SI fields; values are checked against the limits afterwards."""
     stamps = _checked_stamps(messages, lambda message: message.hdr.stamp, path, topic)
     published = {}
     for spec in RAVENSTATE_FIELDS:
@@ -347,20 +370,20 @@ def _state_from_messages(messages, path: Path, topic: str) -> tuple[np.ndarray, 
                               dtype=np.int64)
         else:
             values = np.array([getattr(message, spec.name) for message in messages])
-        _check_finite(values, path, topic, f"field {spec.name!r}")
         published[spec.name] = values
-    return stamps, si_fields(published)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return stamps, si_fields(published)
 
 
-def _truth_from_messages(messages, path: Path, topic: str) -> GroundTruthLog:
+def _truth_from_messages(messages, path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
+    """Times (s) and joints (M, 3); values are checked against the limits afterwards."""
     stamps = _checked_stamps(messages, lambda message: message.header.stamp, path, topic)
     for sample, message in enumerate(messages):
         if len(message.position) != 3:
             raise BagFormatError(f"{path}: topic {topic!r}: sample {sample} has {len(message.position)} "
                                  "positions, expected 3 (shoulder rad, elbow rad, insertion m)")
     joints = np.array([message.position for message in messages], dtype=np.float64)
-    _check_finite(joints, path, topic, "position")
-    return GroundTruthLog(stamps / _NANOSECONDS, joints)
+    return stamps / _NANOSECONDS, joints
 
 
 def _labels_from_messages(messages, state_stamps: np.ndarray, path: Path, topic: str) -> dict[str, np.ndarray]:
@@ -386,12 +409,100 @@ def _labels_from_messages(messages, state_stamps: np.ndarray, path: Path, topic:
             dtype = np.dtype(match["dtype"])
         except TypeError as error:
             raise BagFormatError(f"{path}: topic {topic!r}: label {name!r} names an unknown dtype") from error
-        labels[match["key"]] = values[:, column].astype(dtype)
+        column_values = values[:, column]
+        if np.issubdtype(dtype, np.integer) or dtype == np.bool_:
+            whole = (column_values == np.round(column_values)) & (np.abs(column_values) <= _MAX_EXACT_LABEL)
+            if dtype == np.bool_:
+                whole &= (column_values == 0) | (column_values == 1)
+            if not np.all(whole):
+                raise BagFormatError(f"{path}: topic {topic!r}: label {name!r} at sample "
+                                     f"{int(np.flatnonzero(~whole)[0])} is not a {dtype.name} "
+                                     f"({column_values[~whole][0]!r})")
+        labels[match["key"]] = column_values.astype(dtype)
     return labels
 
 
+_BAG_MAGIC = b"#ROSBAG V2.0\n"
+_OP_MESSAGE, _OP_CHUNK, _OP_CONNECTION = 0x02, 0x05, 0x07
+
+
+def _record_fields(header: bytes) -> dict[str, bytes] | None:
+    """The ``name=value`` fields of a ROS1 bag record header, or None if it is damaged."""
+    fields, offset = {}, 0
+    while offset + 4 <= len(header):
+        (size,) = struct.unpack_from("<I", header, offset)
+        entry = header[offset + 4: offset + 4 + size]
+        if len(entry) != size or b"=" not in entry:
+            return None
+        name, value = entry.split(b"=", 1)
+        fields[name.decode("latin-1")] = value
+        offset += 4 + size
+    return fields if offset == len(header) else None
+
+
+def _records(data: bytes, offset: int = 0):
+    """Complete records ``(op, header fields, payload)`` from ``offset`` on, then for a record cut
+    short ``(op, fields, partial payload)`` once with ``op`` negated; stops at damage."""
+    while offset + 4 <= len(data):
+        (header_size,) = struct.unpack_from("<I", data, offset)
+        if offset + 8 + header_size > len(data):
+            return
+        fields = _record_fields(data[offset + 4: offset + 4 + header_size])
+        if fields is None or len(fields.get("op", b"")) != 1:
+            return
+        (payload_size,) = struct.unpack_from("<I", data, offset + 4 + header_size)
+        start = offset + 8 + header_size
+        payload = data[start: start + payload_size]
+        op = fields["op"][0]
+        if len(payload) < payload_size:
+            yield -op, fields, payload
+            return
+        yield op, fields, payload
+        offset = start + payload_size
+
+
+def _chunk_content(fields: dict[str, bytes], payload: bytes) -> bytes:
+    """The records of a (possibly cut) chunk; an unknown compression reads as empty."""
+    compression = fields.get("compression", b"none")
+    if compression == b"none":
+        return payload
+    if compression == b"bz2":
+        try:
+            return bz2.BZ2Decompressor().decompress(payload)
+        except (OSError, ValueError, EOFError):
+            return b""
+    return b""
+
+
+def _readable_extent(path: Path) -> str:
+    """Where an unindexed (truncated) bag stops: topic, sample and time of the last whole message."""
+    data = path.read_bytes()
+    if not data.startswith(_BAG_MAGIC):
+        return "it does not start as a ROS1 bag (version 2.0)"
+    topics: dict[bytes, str] = {}
+    counts: dict[str, int] = {}
+    last = None
+    for op, fields, payload in _records(data, len(_BAG_MAGIC)):
+        if abs(op) != _OP_CHUNK:
+            continue
+        for inner_op, inner_fields, _ in _records(_chunk_content(fields, payload)):
+            if inner_op == _OP_CONNECTION and "conn" in inner_fields:
+                topics[inner_fields["conn"]] = inner_fields.get("topic", b"?").decode("latin-1", "replace")
+            elif inner_op == _OP_MESSAGE and "conn" in inner_fields and len(inner_fields.get("time", b"")) == 8:
+                topic = topics.get(inner_fields["conn"], "?")
+                counts[topic] = counts.get(topic, 0) + 1
+                seconds, nanoseconds = struct.unpack("<II", inner_fields["time"])
+                last = (topic, counts[topic] - 1, seconds + nanoseconds / _NANOSECONDS)
+    if last is None:
+        return "no whole message is readable"
+    whole = ", ".join(f"{topic!r} {count}" for topic, count in sorted(counts.items()))
+    return (f"it breaks off after sample {last[1]} of topic {last[0]!r} (t = {last[2]:.6f} s); "
+            f"whole messages per topic: {whole}")
+
+
 def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = STATE_TOPIC,
-             truth_topic: str = TRUTH_TOPIC, scenario_topic: str = SCENARIO_TOPIC
+             truth_topic: str = TRUTH_TOPIC, scenario_topic: str = SCENARIO_TOPIC,
+             on_invalid: str = "flag", limits: RecordingLimits | None = None
              ) -> tuple[RavenStateLog, GroundTruthLog]:
     """Read a RAVEN-II recording (this project's or a real robot's) into SI logs.
 
@@ -404,12 +515,20 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
     state_topic, truth_topic, scenario_topic : str
         Topic names, e.g. ``"/ravenstate_100hz"`` for a bag recorded from a throttled topic.
         The scenario topic is optional in the bag.
+    on_invalid : {"flag", "drop", "raise"}
+        What to do with samples holding values the robot cannot produce (outside the limits of
+        ``simulation.recordings.limits``, non-finite included): keep them with ``valid`` False
+        (default), remove them, or raise. "flag" and "drop" warn once
+        (``ImpossibleValueWarning``) naming the bag, the counts per topic and the first value.
+    limits : RecordingLimits, optional
+        Default: ``RecordingLimits.for_arm(arm)``.
 
     Returns
     -------
     state_log : RavenStateLog
-        Time = header stamps, s; labels from the scenario topic, or none.
+        Time = header stamps, s; labels from the scenario topic, or none; ``valid`` per sample.
     truth_log : GroundTruthLog
+        ``valid`` per sample.
 
     Raises
     ------
@@ -417,10 +536,15 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
         No such file.
     BagFormatError
         The bag is truncated or damaged, a topic is missing or of another type, time does not
-        increase, a value is not finite, or the labels do not match the robot-state samples; the
-        message names the file, the topic and the sample.
+        increase, or the labels do not match the robot-state samples; the message names the
+        file, the topic and the sample (for a bag cut short, the last whole message of the
+        readable part: its topic, sample index and time).
+    ImpossibleValueError
+        ``on_invalid="raise"`` and a sample holds an impossible value (naming the file, the
+        topic, the column, the sample, its time, value and limit).
     """
     check_arm(arm)
+    check_on_invalid(on_invalid)
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no bag file {path}")
@@ -429,16 +553,40 @@ def read_bag(path: str | os.PathLike, arm: str = "left", *, state_topic: str = S
             state_messages = _topic_messages(reader, path, state_topic, STATE_MSGTYPE, required=True)
             truth_messages = _topic_messages(reader, path, truth_topic, JOINT_STATE_MSGTYPE, required=True)
             scenario_messages = _topic_messages(reader, path, scenario_topic, JOINT_STATE_MSGTYPE, required=False)
-    except ReaderError as error:
-        raise BagFormatError(f"{path}: not a readable ROS1 bag ({error}); a bag cut short by a crash "
-                             "may be repaired with 'rosbag reindex'") from error
+    except (BagFormatError, PermissionError, IsADirectoryError):
+        raise
+    except Exception as error:  # a damaged index makes rosbags fail in many ways, ReaderError or not
+        try:
+            extent = _readable_extent(path)
+        except (OSError, MemoryError, ValueError, struct.error):
+            extent = "its content cannot be scanned"
+        detail = str(error) if isinstance(error, ReaderError) else f"{type(error).__name__}: {error}"
+        raise BagFormatError(f"{path}: not a readable ROS1 bag ({detail}); {extent}. A bag cut short by a "
+                             "crash may be repaired with 'rosbag reindex'") from error
     stamps, fields = _state_from_messages(state_messages, path, state_topic)
     labels = {} if scenario_messages is None else _labels_from_messages(scenario_messages, stamps, path, scenario_topic)
-    truth_log = _truth_from_messages(truth_messages, path, truth_topic)
+    truth_time, joints = _truth_from_messages(truth_messages, path, truth_topic)
+    state_time = stamps / _NANOSECONDS
+
+    state_found = find_invalid(state_time, state_columns(fields, arm), arm, limits)
+    truth_columns = {f"truth.{joint}": joints[:, j] for j, joint in enumerate(GROUND_TRUTH_JOINTS)}
+    truth_found = find_invalid(truth_time, truth_columns, arm, limits)
+    resolve_invalid(path, [(f"topic {state_topic!r}", state_found), (f"topic {truth_topic!r}", truth_found)],
+                    on_invalid)
+    state_valid, truth_valid = ~state_found.mask, ~truth_found.mask
+    if on_invalid == "drop":
+        fields = {name: values[state_valid] for name, values in fields.items()}
+        labels = {name: values[state_valid] for name, values in labels.items()}
+        state_time, truth_time, joints = state_time[state_valid], truth_time[truth_valid], joints[truth_valid]
+        state_valid, truth_valid = state_valid[state_valid], truth_valid[truth_valid]
     try:
-        state_log = RavenStateLog(stamps / _NANOSECONDS, fields, labels, arm)
+        state_log = RavenStateLog(state_time, fields, labels, arm, state_valid)
     except ValueError as error:
         raise BagFormatError(f"{path}: topic {state_topic!r}: {error}") from error
+    try:
+        truth_log = GroundTruthLog(truth_time, joints, truth_valid)
+    except ValueError as error:
+        raise BagFormatError(f"{path}: topic {truth_topic!r}: {error}") from error
     return state_log, truth_log
 
 
@@ -453,7 +601,8 @@ def read_bag_folder(folder: str | os.PathLike, arm: str = "left", *, pattern: st
     pattern : str
         Glob of the bag files in ``folder``.
     **topics
-        ``state_topic``, ``truth_topic``, ``scenario_topic`` as in ``read_bag``.
+        ``state_topic``, ``truth_topic``, ``scenario_topic``, ``on_invalid``, ``limits`` as in
+        ``read_bag``.
 
     Returns
     -------
@@ -469,6 +618,7 @@ def read_bag_folder(folder: str | os.PathLike, arm: str = "left", *, pattern: st
         From the first bag that cannot be read (naming it).
     """
     folder = Path(folder)
+    check_on_invalid(topics.get("on_invalid", "flag"))
     if not folder.is_dir():
         raise FileNotFoundError(f"no folder {folder}")
     paths = sorted(folder.glob(pattern))

@@ -15,6 +15,11 @@ feature columns (``FEATURE_COLUMNS``, 122)
     Ground truth of joints 1-3 (rad, rad, m).
 ``raw.shoulder``, ``raw.elbow``, ``raw.z_ins``
     The uncorrected joint positions of joints 1-3 (the arm's ``jpos``; rad, rad, m).
+``valid``
+    Boolean: False for a row holding a value the robot cannot produce, or synchronized with such
+    a ground-truth sample (``simulation.recordings.limits``). Readers set it (``read_parquet``,
+    ``read_csv``, and through ``synchronize`` the bag reader); a table without it is all valid.
+    Such rows may hold non-finite values. Training and filtering should use ``valid_mask()``.
 ``label.<name>``
     Scenario labels (``label.payload_kg``...).
 
@@ -36,6 +41,13 @@ import pandas as pd
 
 from simulation.recordings import tables
 from simulation.recordings.bags import read_bag
+from simulation.recordings.limits import (
+    VALID_COLUMN,
+    RecordingLimits,
+    check_on_invalid,
+    find_invalid,
+    resolve_invalid,
+)
 from simulation.recordings.ravenstate import (
     DOF_NAMES,
     GROUND_TRUTH_JOINTS,
@@ -72,6 +84,7 @@ COLUMN_UNITS: Mapping[str, str] = MappingProxyType({
     **{column: unit for spec in RAVENSTATE_FIELDS for column, unit in zip(_columns_of(spec), spec.si_units)},
     **dict(zip(TRUTH_COLUMNS, GROUND_TRUTH_UNITS)),
     **dict(zip(RAW_COLUMNS, GROUND_TRUTH_UNITS)),
+    VALID_COLUMN: "bool",
 })
 
 
@@ -173,6 +186,17 @@ def _first_bad_row(bad: np.ndarray) -> int:
     return int(np.flatnonzero(bad)[0])
 
 
+def _unflagged(frame: pd.DataFrame) -> pd.DataFrame:
+    """A table read from a file, every row marked valid until checked (so that non-finite values
+    reach the limit check, which flags them, instead of failing the constructor)."""
+    frame = frame.drop(columns=[VALID_COLUMN], errors="ignore")
+    with np.errstate(invalid="ignore"):
+        finite = np.isfinite(frame.select_dtypes(include=[np.number]).to_numpy(dtype=np.float64)).all(axis=1)
+    frame = frame.copy()
+    frame[VALID_COLUMN] = finite
+    return frame
+
+
 @dataclass(frozen=True, eq=False)
 class CalibrationDataset:
     """Synchronized robot state, ground truth and labels of one arm, as one table.
@@ -194,8 +218,8 @@ class CalibrationDataset:
     Raises
     ------
     ValueError
-        A required column is missing, a column is unknown, non-numeric or not finite (naming the
-        column and the first bad row).
+        A required column is missing, a column is unknown or non-numeric, a valid row holds a
+        non-finite value (naming the column and the first bad row), or ``valid`` is not boolean.
     """
 
     table: pd.DataFrame
@@ -212,16 +236,24 @@ class CalibrationDataset:
         missing = [column for column in required if column not in self.table.columns]
         if missing:
             raise ValueError(f"dataset table lacks columns {missing}")
-        labels = [column for column in self.table.columns if column not in required]
+        labels = [column for column in self.table.columns if column not in (*required, VALID_COLUMN)]
         unknown = [column for column in labels if not str(column).startswith(LABEL_PREFIX)]
         if unknown:
             raise ValueError(f"dataset table has unknown columns {unknown} (labels start with {LABEL_PREFIX!r})")
-        table = self.table.loc[:, [*required, *labels]].reset_index(drop=True).copy()
+        table = self.table.reset_index(drop=True)
+        if VALID_COLUMN in table.columns:
+            valid = table[VALID_COLUMN].to_numpy()
+            if valid.dtype != np.bool_:
+                raise ValueError(f"dataset column {VALID_COLUMN!r} must be boolean, got dtype {valid.dtype}")
+        else:
+            valid = np.ones(len(table), dtype=bool)
+        table = table.loc[:, [*required, *labels]].copy()
+        table.insert(len(required), VALID_COLUMN, valid)
         for column in table.columns:
             values = table[column].to_numpy()
             if not (np.issubdtype(values.dtype, np.number) or values.dtype == np.bool_):
                 raise ValueError(f"dataset column {column!r} is not numeric (dtype {values.dtype})")
-            finite = np.isfinite(values)
+            finite = np.isfinite(values) | ~valid
             if not np.all(finite):
                 raise ValueError(f"dataset column {column!r} is not finite at row {_first_bad_row(~finite)}")
         for count in ("n_dropped_outside", "n_dropped_in_gaps"):
@@ -251,6 +283,51 @@ class CalibrationDataset:
     def raw_errors(self) -> np.ndarray:
         """``targets - raw_joints``: what an error-predicting calibrator learns, shape (N, 3)."""
         return self.targets - self.raw_joints
+
+    def valid_mask(self) -> np.ndarray:
+        """Rows free of impossible values, shape (N,) bool (a copy of the ``valid`` column).
+
+        Learned calibrators should fit on ``dataset.select(dataset.valid_mask())``; a filter
+        should predict through (coast over) the rows where it is False.
+        """
+        return self.table[VALID_COLUMN].to_numpy(dtype=bool).copy()
+
+    @property
+    def n_invalid(self) -> int:
+        """Number of rows flagged as holding impossible values."""
+        return int((~self.table[VALID_COLUMN].to_numpy(dtype=bool)).sum())
+
+    def check(self, on_invalid: str = "flag", *, source: str = "dataset",
+              limits: RecordingLimits | None = None) -> CalibrationDataset:
+        """This dataset with its rows checked against the arm's physical limits.
+
+        Parameters
+        ----------
+        on_invalid : {"flag", "drop", "raise"}
+            Flag (``valid`` False, kept), drop, or raise ``ImpossibleValueError``; flagging and
+            dropping warn once (``ImpossibleValueWarning``). Rows already flagged stay flagged.
+        source : str
+            How the warning or error names the data (the readers pass the file).
+        limits : RecordingLimits, optional
+            Default: ``RecordingLimits.for_arm(self.arm)``.
+
+        Returns
+        -------
+        CalibrationDataset
+        """
+        return self._check(on_invalid, source, limits, stacklevel=4)
+
+    def _check(self, on_invalid: str, source, limits: RecordingLimits | None, stacklevel: int) -> CalibrationDataset:
+        check_on_invalid(on_invalid)
+        table = self.table
+        found = find_invalid(table[TIME_COLUMN].to_numpy(), {c: table[c].to_numpy() for c in table.columns},
+                             self.arm, limits)
+        resolve_invalid(source, [("", found)], on_invalid, stacklevel=stacklevel)
+        valid = self.valid_mask() & ~found.mask
+        if on_invalid == "drop":
+            return self.select(valid)
+        return CalibrationDataset(table.assign(**{VALID_COLUMN: valid}), self.arm, self.n_dropped_outside,
+                                  self.n_dropped_in_gaps, self.max_gap)
 
     @property
     def label_names(self) -> tuple[str, ...]:
@@ -336,24 +413,80 @@ class CalibrationDataset:
         return tables.write_csv(self.table, path, overwrite=overwrite)
 
     @classmethod
-    def read_parquet(cls, path: str | os.PathLike) -> CalibrationDataset:
-        """Read a dataset written by ``to_parquet``.
+    def read_parquet(cls, path: str | os.PathLike, *, on_invalid: str = "flag",
+                     limits: RecordingLimits | None = None) -> CalibrationDataset:
+        """Read a dataset written by ``to_parquet`` and check it against the arm's limits.
+
+        Parameters
+        ----------
+        path : path-like
+        on_invalid : {"flag", "drop", "raise"}
+            See ``check``; the warning or error names the file.
+        limits : RecordingLimits, optional
 
         Raises
         ------
         TableFormatError
-            Not a dataset file, another format version, other units, or invalid content.
+            Not a dataset file, another format version, other units, or a table that is not a
+            dataset (missing or unknown columns, a non-finite value in a row marked valid...).
+        ImpossibleValueError
+            ``on_invalid="raise"`` and a row holds an impossible value.
         """
+        check_on_invalid(on_invalid)
         frame, metadata = tables.read_parquet(path)
         try:
             file_units = metadata["units"]
             other = {c: u for c, u in file_units.items() if c in COLUMN_UNITS and COLUMN_UNITS[c] != u}
             if other:
                 raise ValueError(f"columns in other units than this reader's: {other}")
-            return cls(frame, metadata["arm"], metadata["n_dropped_outside"], metadata["n_dropped_in_gaps"],
-                       metadata["max_gap"])
+            dataset = cls(_unflagged(frame), metadata["arm"], metadata["n_dropped_outside"],
+                          metadata["n_dropped_in_gaps"], metadata["max_gap"])
         except (KeyError, TypeError, ValueError) as error:
             raise tables.TableFormatError(f"{path}: {error}") from error
+        return dataset._checked_copy(frame, on_invalid, path, limits)
+
+    @classmethod
+    def read_csv(cls, path: str | os.PathLike, arm: str = "left", *, on_invalid: str = "flag",
+                 limits: RecordingLimits | None = None) -> CalibrationDataset:
+        """Read a dataset written by ``to_csv`` (SI units, the table's column names) and check it.
+
+        Parameters
+        ----------
+        path : path-like
+        arm : {"left", "right"}
+            The arm of the features (a CSV file does not record it).
+        on_invalid : {"flag", "drop", "raise"}
+            See ``check``; the warning or error names the file.
+        limits : RecordingLimits, optional
+
+        Raises
+        ------
+        TableFormatError
+            Not a readable CSV table, or a table that is not a dataset.
+        ImpossibleValueError
+            ``on_invalid="raise"`` and a row holds an impossible value.
+        """
+        check_arm(arm)
+        check_on_invalid(on_invalid)
+        frame = tables.read_csv(path)
+        try:
+            dataset = cls(_unflagged(frame), arm)
+        except (TypeError, ValueError) as error:
+            raise tables.TableFormatError(f"{path}: {error}") from error
+        return dataset._checked_copy(frame, on_invalid, path, limits)
+
+    def _checked_copy(self, frame: pd.DataFrame, on_invalid: str, path, limits) -> CalibrationDataset:
+        """``check`` of a table just read, keeping the flags the file carried."""
+        if VALID_COLUMN in frame.columns:
+            stored = frame[VALID_COLUMN].to_numpy()
+            if stored.dtype != np.bool_:
+                raise tables.TableFormatError(f"{path}: column {VALID_COLUMN!r} must be boolean, "
+                                              f"got dtype {stored.dtype}")
+            marked = CalibrationDataset(self.table.assign(**{VALID_COLUMN: stored & self.valid_mask()}), self.arm,
+                                        self.n_dropped_outside, self.n_dropped_in_gaps, self.max_gap)
+        else:
+            marked = self
+        return marked._check(on_invalid, str(path), limits, stacklevel=5)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -369,6 +502,12 @@ def _truth_samples(state_time: np.ndarray, truth_time: np.ndarray, max_gap: floa
     on_sample = (state_time == before) | (state_time == after)
     in_gap = ~outside & ~on_sample & ((after - before) > max_gap)
     return outside, in_gap
+
+
+def _truth_valid(time: np.ndarray, truth_log: GroundTruthLog) -> np.ndarray:
+    """Whether both ground-truth samples a time is interpolated between are valid."""
+    interval = np.clip(np.searchsorted(truth_log.time, time, side="right") - 1, 0, truth_log.time.size - 2)
+    return truth_log.valid[interval] & truth_log.valid[interval + 1]
 
 
 def _feature_frame(state_log: RavenStateLog, arm: str, keep: np.ndarray) -> dict[str, np.ndarray]:
@@ -403,7 +542,8 @@ def synchronize(state_log: RavenStateLog, truth_log: GroundTruthLog, arm: str | 
     -------
     CalibrationDataset
         With ``n_dropped_outside`` (samples before the first or after the last ground-truth
-        sample) and ``n_dropped_in_gaps`` set.
+        sample) and ``n_dropped_in_gaps`` set; a row is ``valid`` when its robot-state sample
+        and the two ground-truth samples around it are.
 
     Raises
     ------
@@ -428,6 +568,7 @@ def synchronize(state_log: RavenStateLog, truth_log: GroundTruthLog, arm: str | 
         )
     time = state_log.time[keep]
     truth = np.column_stack([np.interp(time, truth_log.time, truth_log.joints[:, j]) for j in range(3)])
+    valid = state_log.valid[keep] & _truth_valid(time, truth_log)
     features = _feature_frame(state_log, arm, keep)
     raw = np.column_stack([features[column] for column in RAW_FEATURE_COLUMNS])
     table = pd.DataFrame({
@@ -435,6 +576,7 @@ def synchronize(state_log: RavenStateLog, truth_log: GroundTruthLog, arm: str | 
         **features,
         **dict(zip(TRUTH_COLUMNS, truth.T)),
         **dict(zip(RAW_COLUMNS, raw.T)),
+        VALID_COLUMN: valid,
         **{LABEL_PREFIX + name: values[keep] for name, values in state_log.labels.items()},
     })
     return CalibrationDataset(table, arm, int(outside.sum()), int(in_gap.sum()), float(max_gap))
@@ -455,7 +597,7 @@ def convert_bag(bag_path: str | os.PathLike, out_path: str | os.PathLike, *, arm
     overwrite : bool
         Whether an existing output file may be replaced.
     **topics
-        Topic names as in ``simulation.recordings.bags.read_bag``.
+        Topic names, ``on_invalid`` and ``limits`` as in ``simulation.recordings.bags.read_bag``.
 
     Returns
     -------

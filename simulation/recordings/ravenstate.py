@@ -202,7 +202,19 @@ def _validated_time(time, owner: str) -> np.ndarray:
     return time
 
 
-def _validated_field(spec: FieldSpec, values, n_samples: int) -> np.ndarray:
+def _validated_mask(valid, n_samples: int, owner: str) -> np.ndarray:
+    if valid is None:
+        mask = np.ones(n_samples, dtype=bool)
+    else:
+        mask = np.array(valid)
+        if mask.shape != (n_samples,) or mask.dtype != np.bool_:
+            raise ValueError(f"{owner}: valid must be a boolean array of shape ({n_samples},), "
+                             f"got {mask.dtype} {mask.shape}")
+    mask.setflags(write=False)
+    return mask
+
+
+def _validated_field(spec: FieldSpec, values, n_samples: int, valid: np.ndarray) -> np.ndarray:
     values = np.array(values)
     expected = (n_samples, spec.width) if spec.is_array else (n_samples,)
     if values.shape != expected:
@@ -210,6 +222,8 @@ def _validated_field(spec: FieldSpec, values, n_samples: int) -> np.ndarray:
     if not (np.issubdtype(values.dtype, np.number) or values.dtype == np.bool_):
         raise ValueError(f"RavenStateLog field {spec.name!r} must be numeric, got dtype {values.dtype}")
     finite = np.isfinite(values)
+    if not spec.is_count:
+        finite |= ~valid.reshape((n_samples,) + (1,) * (values.ndim - 1))
     if not np.all(finite):
         raise ValueError(
             f"RavenStateLog field {spec.name!r} is not finite at sample {_first_bad_sample(~finite)}"
@@ -278,31 +292,39 @@ class RavenStateLog:
         ``homing_count``, ``segment``).
     arm : {"left", "right"}
         The arm whose state is the calibration input.
+    valid : ndarray of bool, shape (N,), optional
+        False for a sample a reader found to hold a value the robot cannot produce
+        (``simulation.recordings.limits``); such a sample may hold non-finite values in its
+        float fields. Default: every sample valid.
 
     Raises
     ------
     ValueError
-        A field is missing or unknown, has the wrong shape, holds a non-finite value, an integer
-        field holds a fraction, or time is not strictly increasing; the message names the field
-        and the first bad sample.
+        A field is missing or unknown, has the wrong shape, holds a non-finite value in a valid
+        sample, an integer field holds a fraction, or time is not strictly increasing; the message
+        names the field and the first bad sample.
     """
 
     time: np.ndarray
     fields: Mapping[str, np.ndarray]
     labels: Mapping[str, np.ndarray] = field(default_factory=dict)
     arm: str = "left"
+    valid: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         check_arm(self.arm)
         time = _validated_time(self.time, "RavenStateLog")
+        valid = _validated_mask(self.valid, time.size, "RavenStateLog")
         missing = [name for name in FIELD_SPECS if name not in self.fields]
         unknown = [name for name in self.fields if name not in FIELD_SPECS]
         if missing or unknown:
             raise ValueError(f"RavenStateLog fields: missing {missing}, unknown {unknown}")
-        fields = {name: _validated_field(spec, self.fields[name], time.size) for name, spec in FIELD_SPECS.items()}
+        fields = {name: _validated_field(spec, self.fields[name], time.size, valid)
+                  for name, spec in FIELD_SPECS.items()}
         object.__setattr__(self, "time", time)
         object.__setattr__(self, "fields", MappingProxyType(fields))
         object.__setattr__(self, "labels", _validated_labels(self.labels, time.size))
+        object.__setattr__(self, "valid", valid)
 
     def __len__(self) -> int:
         return self.time.size
@@ -328,11 +350,12 @@ class RavenStateLog:
             fields={name: values[index] for name, values in self.fields.items()},
             labels={name: values[index] for name, values in self.labels.items()},
             arm=self.arm,
+            valid=self.valid[index],
         )
 
     def with_arm(self, arm: str) -> RavenStateLog:
-        """The same recording with another arm as the calibration input."""
-        return RavenStateLog(self.time, self.fields, self.labels, arm)
+        """The same recording with another arm as the calibration input (validity kept)."""
+        return RavenStateLog(self.time, self.fields, self.labels, arm, self.valid)
 
     @classmethod
     def concatenate(cls, logs: Sequence[RavenStateLog]) -> RavenStateLog:
@@ -352,6 +375,7 @@ class RavenStateLog:
             fields={name: np.concatenate([log.fields[name] for log in logs]) for name in FIELD_SPECS},
             labels={name: np.concatenate([log.labels[name] for log in logs]) for name in label_names},
             arm=logs[0].arm,
+            valid=np.concatenate([log.valid for log in logs]),
         )
 
 
@@ -365,27 +389,34 @@ class GroundTruthLog:
         Measurement time stamps, s, strictly increasing.
     joints : ndarray, shape (M, 3)
         Shoulder (rad), elbow (rad) and insertion (m), in the controller's joint convention.
+    valid : ndarray of bool, shape (M,), optional
+        False for a sample found impossible by a reader (it may hold non-finite values).
+        Default: every sample valid.
 
     Raises
     ------
     ValueError
-        Wrong shape, a non-finite value or time not strictly increasing (naming the sample).
+        Wrong shape, a non-finite value in a valid sample or time not strictly increasing
+        (naming the sample).
     """
 
     time: np.ndarray
     joints: np.ndarray
+    valid: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         time = _validated_time(self.time, "GroundTruthLog")
+        valid = _validated_mask(self.valid, time.size, "GroundTruthLog")
         joints = np.array(self.joints, dtype=np.float64)
         if joints.shape != (time.size, 3):
             raise ValueError(f"GroundTruthLog: joints has shape {joints.shape}, expected ({time.size}, 3)")
-        finite = np.isfinite(joints)
+        finite = np.isfinite(joints) | ~valid[:, None]
         if not np.all(finite):
             raise ValueError(f"GroundTruthLog: joints is not finite at sample {_first_bad_sample(~finite)}")
         joints.setflags(write=False)
         object.__setattr__(self, "time", time)
         object.__setattr__(self, "joints", joints)
+        object.__setattr__(self, "valid", valid)
 
     def __len__(self) -> int:
         return self.time.size
@@ -393,7 +424,7 @@ class GroundTruthLog:
     def select(self, selector) -> GroundTruthLog:
         """A new log with the samples picked by a slice, a boolean mask (M,) or sample indices."""
         index = _as_index(selector, len(self))
-        return GroundTruthLog(self.time[index], self.joints[index])
+        return GroundTruthLog(self.time[index], self.joints[index], self.valid[index])
 
     @classmethod
     def concatenate(cls, logs: Sequence[GroundTruthLog]) -> GroundTruthLog:
@@ -402,7 +433,8 @@ class GroundTruthLog:
         if not logs:
             raise ValueError("concatenate needs at least one GroundTruthLog")
         _check_joinable(logs, "GroundTruthLog")
-        return cls(np.concatenate([log.time for log in logs]), np.concatenate([log.joints for log in logs]))
+        return cls(np.concatenate([log.time for log in logs]), np.concatenate([log.joints for log in logs]),
+                   np.concatenate([log.valid for log in logs]))
 
 
 def _check_joinable(logs, owner: str) -> None:

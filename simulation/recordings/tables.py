@@ -130,6 +130,25 @@ def read_parquet(path: str | os.PathLike) -> tuple[pd.DataFrame, dict]:
     return table.to_pandas(), metadata
 
 
+def read_csv(path: str | os.PathLike) -> pd.DataFrame:
+    """Read a table written by ``write_csv``.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    TableFormatError
+        Not a readable CSV table (empty, binary, malformed).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no dataset file {path}")
+    try:
+        return pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as error:
+        raise TableFormatError(f"{path}: not a readable CSV table ({error})") from error
+
+
 def write_csv(frame: pd.DataFrame, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
     """Write ``frame`` as CSV (header row, no index, floats at full precision), atomically."""
     with atomic_output(path, overwrite=overwrite) as temporary:
