@@ -11,7 +11,8 @@ File format (one zip archive, conventionally ``*.rcal``), version 2:
   C-order bytes.
 - ``state.npz``: the learned state as named float64/int arrays (a state dict), read with
   ``allow_pickle=False``, plus ``probe.inputs`` and ``probe.outputs``: a few deterministic input
-  rows around the training data and the saved calibrator's predictions for them.
+  rows around the training data (for a forest, also rows on both sides of its splits) and the
+  saved calibrator's predictions for them.
 
 Saving is atomic: the archive is written to a temporary file in the target's folder, flushed and
 fsynced, then renamed over the target, so a save that fails part-way (a full disk) leaves the
@@ -68,6 +69,7 @@ _STATE_ENTRY = "state.npz"
 _PROBE_INPUTS = "probe.inputs"
 _PROBE_OUTPUTS = "probe.outputs"
 _N_PROBES = 8
+_MAX_SPLIT_PROBES = 2048
 _PROBE_SEED = 20240607
 # Loaded predictions of the probe rows may differ from the stored ones by this fraction of their
 # largest magnitude: room for another machine's BLAS summation order, far below any real edit.
@@ -279,13 +281,69 @@ def _fsync_directory(directory: Path) -> None:
 
 def _probe_inputs(calibrator) -> np.ndarray:
     """Deterministic rows around the training inputs (standard normal when their spread is
-    not stored)."""
+    not stored), and for a forest, rows on both sides of its splits."""
     z = np.random.default_rng(_PROBE_SEED).standard_normal((_N_PROBES, calibrator.n_features_in_))
     source = calibrator if hasattr(calibrator, "x_mean_") else getattr(calibrator, "dnn_", None)
     if source is None or not hasattr(source, "x_mean_"):
-        return z
-    spread = np.where(np.isfinite(source.x_scale_), source.x_scale_, 0.0)
-    return np.asarray(source.x_mean_ + spread * z, dtype=np.float64)
+        rows = z
+        center = np.zeros(calibrator.n_features_in_)
+    else:
+        spread = np.where(np.isfinite(source.x_scale_), source.x_scale_, 0.0)
+        rows = np.asarray(source.x_mean_ + spread * z, dtype=np.float64)
+        center = np.asarray(source.x_mean_, dtype=np.float64)
+    forest = getattr(calibrator, "forest_", None)
+    if forest is not None:
+        rows = np.vstack([rows, _split_probes(forest, center)])
+    return rows
+
+
+def _split_probes(forest, center) -> np.ndarray:
+    """Inputs that reach each split of a forest and land just left and just right of it.
+
+    A tree goes left when ``float32(x[feature]) <= threshold``; the two rows of a split hold the
+    largest float32 on the left and the smallest on the right, the other features at `center`
+    moved inside the bounds of the split's path. Any change of a threshold that an input could
+    notice, and of any leaf value, then changes the prediction of some probe row. Splits are
+    taken level by level over all trees (the splits most inputs pass first), up to
+    `_MAX_SPLIT_PROBES` rows.
+    """
+    rows = []
+    queue = [(int(root), {}) for root in forest.roots]  # node, {feature: (low, high]}
+    while queue and len(rows) < _MAX_SPLIT_PROBES:
+        node, bounds = queue.pop(0)
+        left, right = int(forest.left[node]), int(forest.right[node])
+        if left == node:
+            continue
+        feature, threshold = int(forest.feature[node]), float(forest.threshold[node])
+        base = center.copy()
+        for column, (low, high) in bounds.items():
+            base[column] = _float32_inside(base[column], low, high)
+        below = np.float32(threshold)
+        if below > threshold:
+            below = np.nextafter(below, np.float32(-np.inf))
+        above = np.nextafter(below, np.float32(np.inf))
+        for value in (below, above):
+            row = base.copy()
+            row[feature] = float(value)
+            rows.append(row)
+        low, high = bounds.get(feature, (-np.inf, np.inf))
+        queue.append((left, {**bounds, feature: (low, min(high, threshold))}))
+        queue.append((right, {**bounds, feature: (max(low, threshold), high)}))
+    return np.array(rows[:_MAX_SPLIT_PROBES]).reshape(-1, center.size)
+
+
+def _float32_inside(value, low, high) -> float:
+    """`value`, or the float32 nearest to it with ``low < float32(x) <= high``."""
+    candidate = np.float32(value)
+    if not candidate > low:
+        candidate = np.nextafter(np.float32(low), np.float32(np.inf))
+        while not candidate > low:
+            candidate = np.nextafter(candidate, np.float32(np.inf))
+    if not candidate <= high:
+        candidate = np.float32(high)
+        while not candidate <= high:
+            candidate = np.nextafter(candidate, np.float32(-np.inf))
+    return float(candidate)
 
 
 def _predict_quietly(calibrator, inputs):
@@ -441,9 +499,15 @@ def _check_document(path, document):
                 path, field, f"must be {{'shape': [non-negative ints], 'dtype': one of "
                              f"{list(_ARRAY_DTYPES)}}}; got {spec!r}.")
     if version >= 2:
-        probe_shapes = {_PROBE_INPUTS: [_N_PROBES, n_features],
-                        _PROBE_OUTPUTS: [_N_PROBES] if document["y_is_1d"]
-                        else [_N_PROBES, n_outputs]}
+        inputs = specs.get(_PROBE_INPUTS)
+        n_probes = inputs["shape"][0] if isinstance(inputs, dict) and inputs["shape"] else 0
+        if not _N_PROBES <= n_probes <= _N_PROBES + _MAX_SPLIT_PROBES:
+            raise CalibratorFileError(path, f"arrays[{_PROBE_INPUTS!r}]",
+                                      f"must hold {_N_PROBES} to {_N_PROBES + _MAX_SPLIT_PROBES} "
+                                      f"rows; got {inputs!r}.")
+        probe_shapes = {_PROBE_INPUTS: [n_probes, n_features],
+                        _PROBE_OUTPUTS: [n_probes] if document["y_is_1d"]
+                        else [n_probes, n_outputs]}
         for name, shape in probe_shapes.items():
             if specs.get(name) != {"shape": shape, "dtype": "<f8"}:
                 raise CalibratorFileError(

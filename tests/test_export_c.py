@@ -166,3 +166,20 @@ def test_unfitted_calibrators_and_bad_names_are_refused(tmp_path):
         with pytest.raises(ValueError, match="name must be a C identifier"):
             export_c(calibrator, tmp_path, name=name)
     assert not list(tmp_path.iterdir())
+
+
+@needs_compiler
+@pytest.mark.parametrize("activation", ["sigmoid", "tanh", "relu"])
+def test_saturated_units_and_missing_inputs(tmp_path, activation):
+    X, y = data()
+    calibrator = DNNCalibrator(raw_columns=[0, 1, 2], activation=activation,
+                               hidden_layer_sizes=(16,), max_epochs=5, random_state=0,
+                               n_threads=1).fit(X, y)
+    # Inputs far outside the training range drive every hidden unit deep into saturation.
+    X_far, _ = data(n_samples=100, seed=5)
+    X_far *= np.logspace(-8, 3, 100)[:, None]
+    predict_c, _ = compile_and_load(calibrator, tmp_path)
+    assert_agrees(predict_c(X_far), calibrator.predict(X_far))
+    X_nan = X_far[:3].copy()
+    X_nan[:, 3] = np.nan
+    assert np.all(np.isnan(predict_c(X_nan)))

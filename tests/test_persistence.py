@@ -161,15 +161,24 @@ def independent_digest(document, arrays):
     return digest.hexdigest()
 
 
-def write_file(target, document, arrays, fix_hash):
-    """A calibrator file with the given content; its hash recomputed if `fix_hash`."""
-    if fix_hash and "sha256" in document:
-        document = {**document, "sha256": independent_digest(document, arrays)}
+def npz_bytes(arrays):
     buffer = io.BytesIO()
     np.savez(buffer, **arrays)
-    with zipfile.ZipFile(target, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+    return buffer.getvalue()
+
+
+def write_file(target, document, arrays, fix_hash, state=None):
+    """A calibrator file with the given content; its hash recomputed if `fix_hash`.
+
+    `state`, if given, is `arrays` already in npz form.
+    """
+    if fix_hash and "sha256" in document:
+        document = {**document, "sha256": independent_digest(document, arrays)}
+    content = io.BytesIO()
+    with zipfile.ZipFile(content, "w", compression=zipfile.ZIP_DEFLATED) as archive:
         archive.writestr("metadata.json", json.dumps(document))
-        archive.writestr("state.npz", buffer.getvalue())
+        archive.writestr("state.npz", npz_bytes(arrays) if state is None else state)
+    target.write_bytes(content.getvalue())
     return target
 
 
@@ -283,29 +292,24 @@ def test_non_finite_weights_are_not_written(tmp_path):
 
 # --- every field edited, every class -------------------------------------------------------
 
-STRING_CHOICES = ("bogus", "", "sigmoid", "tanh", "relu", "LinearCalibrator", "DNNCalibrator",
-                  "<f4", "<i8", "<f8")
+STRING_CHOICES = ("bogus", "sigmoid", "tanh", "relu", "DNNCalibrator", "<f4", "<i8")
 
 
 def replacements(value):
     """Other values for one metadata entry: neighbours, other choices, other types."""
     if isinstance(value, bool):
-        return [not value, int(value), None, str(value).lower()]
+        return [not value, int(value), None]
     if isinstance(value, int):
-        return [value + 1, value - 1, -value, 0, value + 0.5, str(value), None, True, [value]]
+        return [value + 1, -value - 1, value + 0.5, str(value), None]
     if isinstance(value, float):
-        return [value * 1.01 if value else 1e-3, -value - 1.0, float("inf"), float("nan"),
-                None, str(value)]
+        return [value * 1.01 if value else 1e-3, float("nan"), str(value)]
     if isinstance(value, str):
-        return [s for s in STRING_CHOICES if s != value] + [None, 1, value.upper()]
+        return [s for s in STRING_CHOICES if s != value] + [None]
     if value is None:
-        return [0, 1, -1, 2.5, True, "bogus", [], [0], {}]
+        return [1, "bogus", [0]]
     if isinstance(value, list):
-        edits = [None, "bogus", {}, []]
-        if value:
-            edits += [value[:-1], value + value[-1:], value[::-1], value[1:] + value[:1]]
-        return edits
-    return [None, [], "bogus", {**value, "unexpected": 1}] + [
+        return [None, value[:-1], value[::-1]] if value else [None, [0]]
+    return [None, [], {**value, "unexpected": 1}] + [
         {k: v for k, v in value.items() if k != key} for key in value]
 
 
@@ -335,24 +339,20 @@ def array_edits(arrays):
     for name, array in arrays.items():
         variants = []
         if array.dtype.kind == "f":
-            scaled = array * 1.01
             first = array.copy().reshape(-1)
             if first.size:
                 first[0] = first[0] * 1.01 + 1e-3
-            variants += [scaled, first.reshape(array.shape), np.where(np.isfinite(array),
-                                                                      -array, array)]
-            for bad in (np.inf, -np.inf, np.nan):
+            variants += [array * 1.01, first.reshape(array.shape)]
+            for bad in (np.inf, np.nan):
                 spoiled = array.copy().reshape(-1)
                 if spoiled.size:
                     spoiled[-1] = bad
                 variants.append(spoiled.reshape(array.shape))
             variants.append(array.astype(np.float32))
         else:
-            variants += [array + 1, array - 1, array * 0, array.astype(np.int32),
-                         array.astype(np.float64)]
+            variants += [array + 1, array - 1, array.astype(np.int32)]
         if array.ndim:
-            variants += [array[:-1], np.concatenate([array, array[-1:]])]
-        variants.append(array.reshape(-1)[:1].reshape(()) if array.size else array)
+            variants.append(array[:-1])
         for variant in variants:
             for sync in (False, True):
                 yield name, {**arrays, name: variant}, sync
@@ -390,24 +390,27 @@ def test_every_edit_of_every_field_is_refused_or_harmless(tmp_path, fitted, clas
     source = save_calibrator(original, tmp_path / "original.rcal")
     document, arrays = read_file(source)
     target = tmp_path / "edited.rcal"
+    state = npz_bytes(arrays)
     outcomes = {"refused": 0, "identical": 0}
-    for field, edited in metadata_edits(document):
-        for fix_hash in (False, True):
+    # Every edit with the hash recomputed (the schema and the probe must catch it), every
+    # fourth one also as it is (the hash must catch it).
+    for count, (field, edited) in enumerate(metadata_edits(document)):
+        for fix_hash in (False, True)[count % 4 != 0:]:
             if fix_hash and field == ("sha256",):
                 continue
-            write_file(target, edited, arrays, fix_hash)
+            write_file(target, edited, arrays, fix_hash, state)
             changed = not fix_hash and edited != document
             outcomes[assert_refused_or_identical(target, original, X, changed)] += 1
-    for field, edited_arrays, sync in array_edits(arrays):
+    for count, (field, edited_arrays, sync) in enumerate(array_edits(arrays)):
         edited = synced(document, edited_arrays) if sync else document
-        for fix_hash in (False, True):
+        for fix_hash in (False, True)[count % 4 != 0:]:
             write_file(target, edited, edited_arrays, fix_hash)
             changed = not fix_hash and (independent_digest(edited, edited_arrays)
                                         != independent_digest(document, arrays))
             outcomes[assert_refused_or_identical(target, original, X, changed)] += 1
     # Edits of what the prediction needs are refused; harmless ones (versions, training-only
     # hyper-parameters, the loss curve) are accepted.
-    assert outcomes["refused"] > 100 and outcomes["identical"] > 0
+    assert outcomes["refused"] > 50 and outcomes["identical"] > 0
 
 
 @pytest.mark.parametrize("class_name", ["LinearCalibrator", "DNNCalibrator",
@@ -419,7 +422,7 @@ def test_random_byte_flips_are_refused_or_harmless(tmp_path, fitted, class_name)
     rng = np.random.default_rng(15)
     target = tmp_path / "flipped.rcal"
     outcomes = {"refused": 0, "identical": 0}
-    for _ in range(300):
+    for _ in range(200):
         damaged = bytearray(content)
         for position in rng.integers(0, len(content), size=rng.integers(1, 4)):
             damaged[position] ^= int(rng.integers(1, 256))
@@ -428,7 +431,7 @@ def test_random_byte_flips_are_refused_or_harmless(tmp_path, fitted, class_name)
     for length in rng.integers(0, len(content), size=30):
         target.write_bytes(content[:length])
         outcomes[assert_refused_or_identical(target, original, X, True)] += 1
-    assert outcomes["refused"] > 250
+    assert outcomes["refused"] > 150
 
 
 # --- version 1 files -----------------------------------------------------------------------
