@@ -239,7 +239,8 @@ def _polynomial(name, predictor, n_features, n_targets):
                    _array(f"{name}_factor{degree}", factor, "int")]
         statements.append(
             f"    for (i = 0; i < {stop - start}; ++i)\n"
-            f"        m[{start} + i] = m[{name}_parent{degree}[i]] * x[{name}_factor{degree}[i]];\n")
+            f"        m[{start} + i] = m[{name}_parent{degree}[i]]"
+            f" * x[{name}_factor{degree}[i]];\n")
     body = (f"    double m[{n_terms}];\n    double out[{n_targets}];\n    int i, j;\n"
             + "".join(statements)
             + _affine_layer("m", f"{name}_weight", f"{name}_bias", "out", n_terms, n_targets)

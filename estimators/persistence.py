@@ -110,6 +110,10 @@ class CalibratorFileError(ValueError):
         where = f"{path}" if field is None else f"{path}, field {field!r}"
         super().__init__(f"{where}: {problem}")
 
+    def __reduce__(self):
+        # Rebuilt from its parts when it crosses a process boundary (parallel studies).
+        return type(self), (self.path, self.field, self.problem)
+
 
 def save_calibrator(calibrator: CalibratorBase, path, *, feature_names=None) -> Path:
     """Write a fitted calibrator to `path` atomically (see the module docstring for the format).
@@ -145,6 +149,8 @@ def save_calibrator(calibrator: CalibratorBase, path, *, feature_names=None) -> 
             f"cannot save {type(calibrator).__name__}: not a calibrator of this package.")
     check_is_fitted(calibrator)
     path = Path(path)
+    if not path.parent.is_dir():
+        raise FileNotFoundError(f"cannot save {path}: the folder {path.parent} does not exist.")
     names = _feature_names_to_save(calibrator, feature_names)
     arrays = {name: np.asarray(value) for name, value in calibrator._fitted_arrays().items()}
     probe_inputs = _probe_inputs(calibrator)
@@ -457,7 +463,8 @@ def _check_document(path, document):
     if keys != _KEYS[version]:
         missing, extra = sorted(_KEYS[version] - keys), sorted(keys - _KEYS[version])
         field = (missing or extra)[0]
-        raise CalibratorFileError(path, field, f"metadata keys: missing {missing}, unknown {extra}.")
+        raise CalibratorFileError(path, field,
+                                  f"metadata keys: missing {missing}, unknown {extra}.")
     class_name = document["class"]
     if not isinstance(class_name, str) or class_name not in CALIBRATOR_CLASSES:
         raise CalibratorFileError(path, "class", f"unknown calibrator class {class_name!r}.")
@@ -562,11 +569,11 @@ def _build(path, class_name, params, field):
     cls = CALIBRATOR_CLASSES[class_name]
     if not isinstance(params, dict):
         raise CalibratorFileError(path, field, f"must be an object; got {params!r}.")
-    expected = _parameter_names(cls)
-    if set(params) != expected:
-        raise CalibratorFileError(
-            path, field, f"{class_name} parameters: missing {sorted(expected - set(params))}, "
-                         f"unknown {sorted(set(params) - expected)}.")
+    # A parameter missing from the file is one added to the class after the file was written:
+    # it takes its default (which the probe predictions confirm). An unknown one is refused.
+    unknown = sorted(set(params) - _parameter_names(cls))
+    if unknown:
+        raise CalibratorFileError(path, field, f"unknown {class_name} parameters {unknown}.")
     decoded = {name: _decode_value(path, f"{field}.{name}", value)
                for name, value in params.items()}
     for name in ("random_state", "n_threads", "n_jobs"):

@@ -221,7 +221,8 @@ def test_other_format_version_is_refused_with_both_versions_named(saved_linear):
     (lambda d: {**d, "raw_columns": [0, 0]}, None, "field 'raw_columns'"),
     (lambda d: {**d, "feature_names_in": "shoulder"}, None, "field 'feature_names_in'"),
     (lambda d: {**d, "params": {**d["params"], "alpha": "0.1"}}, None, "field 'params'"),
-    (lambda d: {**d, "params": {**d["params"], "beta": 1.0}}, None, r"unknown \['beta'\]"),
+    (lambda d: {**d, "params": {**d["params"], "beta": 1.0}}, None,
+     r"unknown LinearCalibrator parameters \['beta'\]"),
     (lambda d: {**d, "y_is_1d": 1}, None, "field 'y_is_1d'"),
 ])
 def test_inconsistent_files_are_refused_naming_the_file_and_field(saved_linear, metadata, state,
@@ -512,3 +513,33 @@ def test_saving_over_a_file_replaces_it_whole(tmp_path):
     save_calibrator(second, target)
     np.testing.assert_array_equal(load_calibrator(target).predict(X), second.predict(X))
     assert [p.name for p in tmp_path.iterdir()] == ["model.rcal"]
+
+
+def test_a_parameter_added_to_the_class_later_takes_its_default(tmp_path, fitted):
+    X, calibrators = fitted
+    original = calibrators["DNNCalibrator"]
+    path = save_calibrator(original, tmp_path / "dnn.rcal")
+    older = _rewrite(path, lambda d: {**d, "params": {k: v for k, v in d["params"].items()
+                                                      if k != "n_threads"}})
+    loaded = load_calibrator(older)
+    assert loaded.n_threads is None
+    np.testing.assert_array_equal(loaded.predict(X), original.predict(X))
+
+
+def test_the_error_names_file_and_field_and_survives_pickling(saved_linear):
+    import pickle
+
+    edited = _rewrite(saved_linear, lambda d: {**d, "n_outputs": 0})
+    with pytest.raises(CalibratorFileError) as caught:
+        load_calibrator(edited)
+    error = caught.value
+    assert (error.path, error.field) == (edited, "n_outputs")
+    assert str(error).startswith(f"{edited}, field 'n_outputs': must be a positive integer")
+    copy_ = pickle.loads(pickle.dumps(error))
+    assert type(copy_) is CalibratorFileError and str(copy_) == str(error)
+
+
+def test_saving_into_a_missing_folder_names_it(tmp_path):
+    X, y = data()
+    with pytest.raises(FileNotFoundError, match="the folder .*missing does not exist"):
+        save_calibrator(LinearCalibrator().fit(X, y), tmp_path / "missing" / "model.rcal")
