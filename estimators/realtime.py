@@ -87,6 +87,24 @@ class MLPPredictor:
             input_factor, input_offset = 0.5, np.full(w.shape[1], 0.5)
         return cls(new_weights, new_biases, "tanh", raw_index)
 
+    @property
+    def layers(self) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """Weights (n_in, n_out) and biases of every layer, input layer first, in raw units
+        (the arrays the predictor uses: do not modify them). Used by `estimators.export_c`."""
+        weights = [weight for weight, _, _ in self._hidden] + [self._out_weight]
+        biases = [bias for _, bias, _ in self._hidden] + [self._out_bias]
+        return weights, biases
+
+    @property
+    def activation(self) -> str:
+        """Hidden-unit activation, "tanh" or "relu"."""
+        return self._activation
+
+    @property
+    def raw_index(self) -> np.ndarray | None:
+        """Columns of x added to the output, or None."""
+        return self._raw_index
+
     def __call__(self, x: np.ndarray) -> np.ndarray:
         layer_input = x
         for weight, bias, buffer in self._hidden:
@@ -130,6 +148,22 @@ class MonomialPredictor:
             self._levels.append((np.asarray(parent, dtype=np.intp) + previous_start,
                                  np.asarray(factor, dtype=np.intp), start, stop))
             previous_start, start = start, stop
+
+    @property
+    def weight(self) -> np.ndarray:
+        """Weights over all monomials (n_monomials, n_targets), degree 1 first, raw units."""
+        return self._weight
+
+    @property
+    def bias(self) -> np.ndarray:
+        return self._bias
+
+    @property
+    def levels(self) -> list[tuple[np.ndarray, np.ndarray, int, int]]:
+        """For each degree k >= 2: (parent, factor, start, stop), meaning monomials
+        ``start:stop`` are ``monomials[parent] * x[factor]`` (parent indexes all monomials).
+        Used by `estimators.export_c`."""
+        return list(self._levels)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         features = self._features
