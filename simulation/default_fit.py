@@ -15,14 +15,19 @@ Each fit is a surrogate solved in casadi and checked by simulation: simulate wit
 parameters, record the elastic cable tensions (which the loads set, nearly independent of the
 cable law), solve for the law that maps those tensions to the published errors, and simulate
 again until the simulated errors agree. Run ``python -m simulation.default_fit`` to reproduce the
-defaults of :mod:`simulation.model.effects`; it prints target against achieved.
+defaults of :mod:`simulation.model.effects`; it prints target against achieved. With
+``--out FILE.json`` it also writes the fitted parameter set (the virtual RAVEN-II's defaults with the
+fitted values in place), readable by :meth:`RavenParameters.from_json
+<simulation.model.parameters.RavenParameters.from_json>`.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -219,11 +224,41 @@ def fit_drift(params: RavenParameters, seed: int = 0, iterations: int = 3, toler
     return params, run
 
 
+def check_output_path(path: str | os.PathLike) -> Path:
+    """``path`` as a Path if a parameter file can be written there, else a one-line ValueError.
+
+    Checked before the fit (several minutes) so a mistyped folder fails at once: the folder must
+    exist and be writable, and ``path`` must not itself be a folder.
+    """
+    path = Path(path)
+    folder = path.parent
+    if not folder.is_dir():
+        raise ValueError(f"cannot write {path}: folder {folder} does not exist")
+    if path.is_dir():
+        raise ValueError(f"cannot write {path}: it is a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"cannot write {path}: folder {folder} is not writable")
+    return path
+
+
+def write_fit(params: RavenParameters, path: str | os.PathLike) -> Path:
+    """Write a fitted parameter set to ``path`` as JSON (atomically; see :meth:`RavenParameters.to_json`)."""
+    return params.to_json(check_output_path(path))
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--skip-drift", action="store_true", help="fit only the cable stretch law")
+    parser.add_argument("--out", metavar="FILE.json", type=Path,
+                        help="also write the fitted parameter set to this JSON file "
+                             "(read it with RavenParameters.from_json)")
     args = parser.parse_args(argv)
+    if args.out is not None:
+        try:
+            check_output_path(args.out)
+        except ValueError as error:
+            parser.error(str(error))
     params = RavenParameters()
     print("Fitting cable_stretch to Table I (J2-J3) raw and fixed-offset RMSE ...")
     params, errors = fit_cable_stretch(params, args.seed)
@@ -234,16 +269,19 @@ def main(argv=None) -> None:
     for j, name in enumerate(("1 (deg)", "2 (deg)", "3 (mm)")):
         print(f"  {name:10s} {PUBLISHED_RAW[j] * REPORT_SCALE[j]:11.3f} {errors.raw[j] * REPORT_SCALE[j]:13.3f}"
               f" {PUBLISHED_FIXED_OFFSET[j] * REPORT_SCALE[j]:11.3f} {errors.fixed_offset[j] * REPORT_SCALE[j]:13.3f}")
-    if args.skip_drift:
-        return
-    print("Fitting drift creep rates to Table III (linear, unloaded, hour 5) ...")
-    params, run = fit_drift(params, args.seed)
-    drift = params.effect("drift")
-    print(f"  creep_rate = {np.array2string(drift.creep_rate, precision=6, separator=', ')}")
-    print("  joint      hour-0 paper  hour-0 sim  hour-5 target  hour-5 sim")
-    for j, name in enumerate(("1 (deg)", "2 (deg)", "3 (mm)")):
-        print(f"  {name:10s} {PUBLISHED_LINEAR_HOUR0[j] * REPORT_SCALE[j]:11.3f} {run.hourly_linear[0, j] * REPORT_SCALE[j]:11.3f}"
-              f" {PUBLISHED_LINEAR_HOUR5[j] * REPORT_SCALE[j]:13.3f} {run.hourly_linear[5, j] * REPORT_SCALE[j]:11.3f}")
+    if not args.skip_drift:
+        print("Fitting drift creep rates to Table III (linear, unloaded, hour 5) ...")
+        params, run = fit_drift(params, args.seed)
+        drift = params.effect("drift")
+        print(f"  creep_rate = {np.array2string(drift.creep_rate, precision=6, separator=', ')}")
+        print("  joint      hour-0 paper  hour-0 sim  hour-5 target  hour-5 sim")
+        for j, name in enumerate(("1 (deg)", "2 (deg)", "3 (mm)")):
+            print(f"  {name:10s} {PUBLISHED_LINEAR_HOUR0[j] * REPORT_SCALE[j]:11.3f}"
+                  f" {run.hourly_linear[0, j] * REPORT_SCALE[j]:11.3f}"
+                  f" {PUBLISHED_LINEAR_HOUR5[j] * REPORT_SCALE[j]:13.3f}"
+                  f" {run.hourly_linear[5, j] * REPORT_SCALE[j]:11.3f}")
+    if args.out is not None:
+        print(f"Wrote the fitted parameters to {write_fit(params, args.out)}")
 
 
 if __name__ == "__main__":
