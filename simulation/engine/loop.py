@@ -25,9 +25,9 @@ The parameter tables and the layout of the plant and controller state vectors
 the loop they are made for.
 
 The per-tick functions of the sensors, controller and plant are inlined into :func:`servo_loop`
-(numba ``inline="always"``), which is compiled with numpy's error model: the loop then runs as
-one function, with no reference counting of the arrays it hands them on each tick, as fast as
-when it was written as one. Numba caches each compiled function on its own, and a cached caller
+(numba ``inline="always"``), which is compiled with numpy's error model (no exception paths
+for divisions): the loop then compiles to one function that hands them its arrays without
+reference counting on each tick. Numba caches each compiled function on its own, and a cached caller
 is not recompiled when only a function it calls or inlines (here or in
 :mod:`simulation.model.laws`) changes: after editing one, clear this package's numba cache files
 (``__pycache__/*.nbi``, ``*.nbc``).
@@ -155,6 +155,8 @@ def servo_loop(mode, start_tick, n_ticks, traj_q, traj_qd, traj_rate, traj_t0,
     tr = table[R_TR]
     stretch_on = flags[E_STRETCH] == 1
 
+    # signals and scratch of this call (the tension, stretch and gravity logged at its first tick,
+    # before the plant has run, are zero)
     qd_des = np.zeros(7)
     vd_des = np.zeros(7)
     mpos = np.zeros(7)
