@@ -1,0 +1,203 @@
+"""The arrays the compiled servo loop works on: parameter table, switches, scalars, state vectors.
+
+:func:`build_tables` packs a :class:`~simulation.model.parameters.RavenParameters` and a payload
+into an :class:`EngineTables`; the integer constants below name the rows of its per-DOF table
+(``R_*``), its effect switches (``E_*``, in the order of
+:data:`simulation.model.effects.EFFECT_NAMES`) and scalars (``S_*``), the slots of the plant's
+state vector (``X_*``) and of the controller's (``C_*``), and the loop's modes (``MODE_*``).
+The compiled functions of :mod:`~simulation.engine.sensors`, :mod:`~simulation.engine.controller`
+and :mod:`~simulation.engine.plant` index their arrays with them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from simulation.model.constants import coupling_matrix
+from simulation.model.effects import EFFECT_NAMES
+from simulation.model.parameters import RavenParameters
+
+# Rows of the per-DOF parameter table (columns: the seven DOFs; positioning-only rows use 0..2).
+R_TR, R_GEAR, R_TPA, R_DPA, R_DACMAX, R_KP, R_KD, R_KI, R_JM, R_BM = range(10)
+R_HOMEDAC, R_HOMESPEED, R_STOP_LO, R_STOP_HI, R_HOMEPOSE, R_REGPOS = range(10, 16)
+R_K1, R_K3, R_DAMP, R_KTOOL, R_GSCALE, R_FC, R_VC, R_FV = range(16, 24)
+R_BL, R_HK, R_HB, R_HG = range(24, 28)
+R_DK, R_DC, R_DLG, R_DVREF = range(28, 32)
+R_HREP, R_TRUTHRES, R_TRUTHNOISE, R_INOISE, R_RUNOUT = range(32, 37)
+N_ROWS = 37
+
+# Effect switches.
+(E_STRETCH, E_GRAVITY, E_COUPLING, E_COULOMB, E_VISCOUS, E_BACKLASH, E_HYSTERESIS, E_DRIFT,
+ E_HOMING, E_QUANT, E_NOISE, E_RUNOUT) = range(12)
+assert EFFECT_NAMES == ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction",
+                        "backlash", "hysteresis", "drift", "homing_offset", "quantization", "noise",
+                        "capstan_runout")
+
+# Scalars.
+S_DT, S_NSUB, S_TOOLGB, S_TOOLSIGN, S_CPR, S_TIMESCALE, S_SETTLE, S_PAYLOAD = range(8)
+N_SCALARS = 8
+
+# Plant state vector.
+X_U = 0          # 7 motor coordinates (joint units)
+X_UD = 7         # 7 motor velocities
+X_Q = 14         # 3 link positions
+X_QD = 17        # 3 link velocities
+X_PB = 20        # 3 backlash outputs
+X_Z = 23         # 3 Bouc-Wen states
+X_DOSE = 26      # 3 fatigue doses (equivalent hours)
+X_QT = 29        # 4 tool joint positions
+X_SF = 33        # 3 cable stretches smoothed over the hysteresis response time
+X_QF = 36        # 3 link positions smoothed the same way (the travel that ages the cables)
+N_PLANT = 39
+
+# Controller state vector.
+C_PREV = 0       # 7 previous motor positions (rad, motor shaft)
+C_INT = 7        # 7 integral errors
+C_OFF = 14       # 7 registered encoder offsets (counts)
+C_POWERON = 21   # 7 power-on encoder counts
+C_HOLD = 28      # 7 held desired joint positions (homing)
+C_HOMESTATE = 35  # 3 homing state per positioning joint (0 searching, 1 at hard stop)
+C_HOMESTART = 38  # 3 desired joint positions where the search started
+C_SETTLE = 41    # ticks spent with every joint at its stop
+C_SEQ = 42       # command sequence number
+C_READY = 43     # 1 once the motor filters are initialised
+N_CTRL = 44
+
+# Modes of the loop.
+MODE_TRAJECTORY = 0   # follow a desired trajectory
+MODE_HOMING = 1       # search the hard stops and register the encoders
+
+
+@dataclass(frozen=True)
+class EngineTables:
+    """Everything the compiled loop needs about one arm, packed as arrays.
+
+    Built by :func:`build_tables` from a :class:`~simulation.model.parameters.RavenParameters` and a payload.
+    """
+
+    table: np.ndarray          # (N_ROWS, 7)
+    flags: np.ndarray          # (12,) int64 effect switches
+    scalars: np.ndarray        # (N_SCALARS,)
+    coupling_nominal: np.ndarray  # (3, 3) controller's A
+    coupling_true: np.ndarray     # (3, 3) the arm's A
+    gravity_plant: np.ndarray     # gravity/inertia coefficients with payload
+    gravity_controller: np.ndarray  # coefficients the controller's gravity compensation uses
+
+
+def build_tables(params: RavenParameters, robot, payload_kg: float = 0.0, substeps: int = 4) -> EngineTables:
+    """Pack a parameter set and a payload into the arrays of the compiled loop.
+
+    Parameters
+    ----------
+    params : the arm's constants and effects.
+    robot : the :class:`kinematics.RavenII` of the same arm (gravity and inertia coefficients).
+    payload_kg : mass hanging at the tool tip (kg).
+    substeps : plant integration steps per 1 ms servo tick.
+
+    Raises
+    ------
+    ValueError
+        For a parameter the loop divides by that is zero (the compiled loop uses numpy's error
+        model, where such a division would give inf or nan instead of an error).
+    """
+    c = params.constants
+    _check_divisors(params, substeps)
+    t = np.zeros((N_ROWS, 7))
+    t[R_TR] = c.transmission_ratio
+    t[R_GEAR] = c.gearbox
+    t[R_TPA] = c.torque_per_amp
+    t[R_DPA] = c.dac_per_amp
+    t[R_DACMAX] = c.dac_max
+    t[R_KP] = c.kp
+    t[R_KD] = c.kd
+    t[R_KI] = c.ki
+    t[R_JM] = c.motor_inertia
+    t[R_BM] = c.motor_damping
+    t[R_HOMEDAC] = c.homing_dac
+    t[R_HOMESPEED, :3] = c.homing_speed
+    lo = np.array([c.hard_stop[0], np.deg2rad(40.0), 0.22])
+    hi = np.array([np.deg2rad(95.0), c.hard_stop[1], c.hard_stop[2]])
+    t[R_STOP_LO, :3] = lo
+    t[R_STOP_HI, :3] = hi
+    t[R_HOMEPOSE] = c.home_pose
+    t[R_REGPOS, :3] = c.hard_stop
+
+    stretch = params.effect("cable_stretch")
+    t[R_K1, :3] = stretch.stiffness
+    t[R_K3, :3] = stretch.hardening
+    t[R_DAMP, :3] = stretch.damping
+    t[R_KTOOL, 3:] = c.tool_cable_stiffness
+    t[R_GSCALE, :3] = params.effect("gravity_stretch").load_scale
+    coulomb = params.effect("coulomb_friction")
+    t[R_FC, :3] = coulomb.force
+    t[R_FC, 3:] = c.tool_friction
+    t[R_VC, :3] = coulomb.velocity_scale
+    t[R_VC, 3:] = 0.05
+    viscous = params.effect("viscous_friction")
+    t[R_FV, :3] = viscous.coefficient
+    t[R_FV, 3:] = c.tool_viscous
+    t[R_BL, :3] = params.effect("backlash").half_width
+    hyst = params.effect("hysteresis")
+    t[R_HK, :3] = hyst.stiffness
+    t[R_HB, :3] = hyst.beta
+    t[R_HG, :3] = hyst.gamma
+    drift = params.effect("drift")
+    t[R_DK, :3] = drift.stiffness_loss
+    t[R_DC, :3] = drift.creep_rate
+    t[R_DLG, :3] = drift.payload_gain
+    t[R_DVREF, :3] = drift.reference_speed
+    homing = params.effect("homing_offset")
+    t[R_HREP, :3] = homing.repeatability
+    t[R_HREP, 3:] = homing.tool_repeatability
+    quant = params.effect("quantization")
+    t[R_TRUTHRES, :3] = quant.truth_resolution
+    noise = params.effect("noise")
+    t[R_TRUTHNOISE, :3] = noise.truth_noise
+    t[R_INOISE] = noise.current_noise
+    t[R_RUNOUT, :3] = params.effect("capstan_runout").amplitude
+
+    flags = np.array([1 if params.is_enabled(n) else 0 for n in EFFECT_NAMES], dtype=np.int64)
+    scalars = np.zeros(N_SCALARS)
+    scalars[S_DT] = c.servo_period
+    scalars[S_NSUB] = substeps
+    scalars[S_TOOLGB] = c.tool_gb_ratio
+    scalars[S_TOOLSIGN] = c.tool_sign
+    scalars[S_CPR] = quant.motor_counts_per_rev if quant.enabled else c.encoder_counts_per_rev
+    scalars[S_TIMESCALE] = drift.time_scale
+    scalars[S_SETTLE] = round(c.settle_time / c.servo_period)
+    scalars[S_PAYLOAD] = payload_kg
+
+    nominal = c.nominal_coupling()
+    coupling = params.effect("coupling")
+    delta = coupling.delta if coupling.enabled else np.zeros(3)
+    true = coupling_matrix(*(np.asarray(c.cable_coupling) + delta))
+    return EngineTables(
+        table=t,
+        flags=flags,
+        scalars=scalars,
+        coupling_nominal=nominal,
+        coupling_true=true,
+        gravity_plant=robot.gravity_coefficients(payload_kg),
+        gravity_controller=robot.gravity_coefficients(0.0),
+    )
+
+
+def _check_divisors(params: RavenParameters, substeps: int) -> None:
+    """Reject the parameters the servo loop would divide by zero with, each by name."""
+    c = params.constants
+    for name in ("transmission_ratio", "gearbox", "torque_per_amp", "dac_per_amp"):
+        if np.any(np.asarray(getattr(c, name)) == 0):
+            raise ValueError(f"RavenConstants.{name} must be non-zero, got {np.asarray(getattr(c, name)).tolist()}")
+    inertia = np.asarray(c.motor_inertia)
+    if np.any(inertia[3:] == 0) or (params.is_enabled("cable_stretch") and np.any(inertia[:3] == 0)):
+        raise ValueError(f"RavenConstants.motor_inertia must be non-zero, got {inertia.tolist()}")
+    for name in ("servo_period", "tool_gb_ratio", "encoder_counts_per_rev"):
+        if getattr(c, name) == 0:
+            raise ValueError(f"RavenConstants.{name} must be non-zero, got {getattr(c, name)!r}")
+    if int(substeps) < 1:
+        raise ValueError(f"substeps must be >= 1, got {substeps}")
+    quant = params.effect("quantization")
+    if quant.enabled and np.any(quant.truth_resolution == 0):
+        raise ValueError(f"quantization truth_resolution must be positive, got {quant.truth_resolution.tolist()}")
