@@ -136,17 +136,17 @@ class _BarLayout:
     def __init__(self, n_slots: int, slot_in: float, broken: Sequence[bool], categories: Sequence[str],
                  tilt: bool, legend: bool):
         self.broken = list(broken)
-        self.TOP = 0.95 if legend else 0.65
+        self.top = 0.95 if legend else 0.65
         longest = max((_text_width_pt(c) for c in categories), default=0.0) / 72.0
         self.bottom = 0.25 + (0.5 * longest + 0.15 if tilt else 0.15)
         self.width = self.LEFT + self.RIGHT + slot_in * n_slots
         rows = sum(self.HEIGHT + (self.UPPER + self.BREAK_GAP if b else 0.0) for b in self.broken)
-        self.height = self.TOP + rows + self.GAP * (len(self.broken) - 1) + self.bottom
+        self.height = self.top + rows + self.GAP * (len(self.broken) - 1) + self.bottom
 
     def rects(self):
         """Per row: (upper rect or None, lower rect), each (left, bottom, width, height) in figure fractions."""
         w, h = self.width, self.height
-        y = h - self.TOP
+        y = h - self.top
         for broken in self.broken:
             upper = None
             if broken:
