@@ -14,7 +14,7 @@ import pytest
 from studies import compare_sota
 from studies.common.data_sources import simulated_comparison
 from studies.common.methods import MethodSettings, method_catalogue
-from studies.common.sweeps import run_tasks
+from studies.common.sweeps import run_tasks, shared_arguments
 from studies.common.training import run_methods
 
 distributed = pytest.importorskip("distributed", reason="the cluster extra is not installed: pip install -e .[cluster]")
@@ -76,3 +76,9 @@ def test_a_missing_engine_is_named_with_its_install_command(monkeypatch):
 def test_a_scheduler_address_needs_a_cluster_backend():
     with pytest.raises(ValueError, match="scheduler address needs backend 'dask' or 'ray'"):
         run_tasks(divmod, [(7, 2)], backend="loky", scheduler="tcp://127.0.0.1:8786", progress=False)
+
+
+def test_arguments_shared_by_tasks_are_found_by_identity():
+    data, other, method = np.zeros(1000), np.zeros(1000), {"name": "linear"}
+    tasks = [(method, 0, data, True), (method, 1, data, True), (method, 2, other, True)]
+    assert [id(a) for a in shared_arguments(tasks)] == [id(method), id(data)]

@@ -21,6 +21,7 @@ from __future__ import annotations
 import logging
 import os
 import sys
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import ExitStack, contextmanager
 from typing import Any
@@ -51,8 +52,25 @@ def local_workers(n_jobs: int) -> int:
     return n_jobs if n_jobs > 0 else max(1, joblib.cpu_count() + 1 + n_jobs)
 
 
+def shared_arguments(tasks: Sequence[tuple]) -> list[Any]:
+    """The arguments passed as the same object to more than one task (data sets, method objects).
+
+    A cluster receives each of them once (scattered to the workers) instead of once per task.
+    """
+    seen: set[int] = set()
+    shared: dict[int, Any] = {}
+    for task in tasks:
+        for argument in task:
+            if isinstance(argument, (int, float, complex, str, bytes, bool, type(None))):
+                continue
+            if id(argument) in seen:
+                shared.setdefault(id(argument), argument)
+            seen.add(id(argument))
+    return list(shared.values())
+
+
 @contextmanager
-def _dask(scheduler: str | None, n_jobs: int) -> Iterator[None]:
+def _dask(scheduler: str | None, n_jobs: int, scatter: list[Any]) -> Iterator[None]:
     _require("dask")
     from distributed import Client, LocalCluster
 
@@ -65,7 +83,12 @@ def _dask(scheduler: str | None, n_jobs: int) -> Iterator[None]:
                                                        processes=True, dashboard_address=None,
                                                        silence_logs=logging.ERROR))
             stack.enter_context(Client(cluster))
-        stack.enter_context(joblib.parallel_config(backend="dask", wait_for_workers_timeout=60))
+        stack.enter_context(joblib.parallel_config(backend="dask", scatter=scatter or None,
+                                                   wait_for_workers_timeout=60))
+        # a task's own data (e.g. the full robot state of a model-based method) has to travel once;
+        # Dask's advice to load it with Dask instead is no action for the user of a study
+        stack.enter_context(warnings.catch_warnings())
+        warnings.filterwarnings("ignore", message="Sending large graph", category=UserWarning)
         yield
 
 
@@ -89,13 +112,14 @@ def _ray(scheduler: str | None) -> Iterator[None]:
 
 
 @contextmanager
-def _backend(backend: str, scheduler: str | None, n_jobs: int = -1) -> Iterator[None]:
+def _backend(backend: str, scheduler: str | None, n_jobs: int = -1, scatter: list[Any] | None = None
+             ) -> Iterator[None]:
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if scheduler and backend not in ("dask", "ray"):
         raise ValueError(f"a scheduler address needs backend 'dask' or 'ray', got backend {backend!r}")
     if backend == "dask":
-        with _dask(scheduler, n_jobs):
+        with _dask(scheduler, n_jobs, scatter or []):
             yield
     elif backend == "ray":
         with _ray(scheduler):
@@ -129,9 +153,9 @@ def run_tasks(function: Callable[..., Any], tasks: Sequence[tuple], *, n_jobs: i
     if not tasks:
         return []
     results: list[Any] = [None] * len(tasks)
-    with _backend(backend, scheduler, n_jobs):
+    with _backend(backend, scheduler, n_jobs, shared_arguments(tasks) if backend == "dask" else None):
         parallel = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")
-        stream = parallel(joblib.delayed(_indexed)(function, index, task) for index, task in enumerate(tasks))
+        stream = parallel(joblib.delayed(_indexed)(function, index, *task) for index, task in enumerate(tasks))
         bar = tqdm(total=len(tasks), desc=description, disable=not progress, file=sys.stderr,
                    dynamic_ncols=True)
         with bar:
@@ -141,5 +165,6 @@ def run_tasks(function: Callable[..., Any], tasks: Sequence[tuple], *, n_jobs: i
     return results
 
 
-def _indexed(function: Callable[..., Any], index: int, task: tuple) -> tuple[int, Any]:
-    return index, function(*task)
+def _indexed(function: Callable[..., Any], index: int, *arguments: Any) -> tuple[int, Any]:
+    # the task's arguments are passed one by one so that a cluster backend can match the shared ones
+    return index, function(*arguments)
