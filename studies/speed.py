@@ -158,7 +158,7 @@ def tables(results: dict) -> list[str]:
 def figures(results: dict, out: Path) -> list[Path]:
     values = {t["label"]: [t["fit_s"], t["realtime_us"], t["predict_us"]] for t in results["timings"].values()}
     return [plots.method_bars(values, ["training (s)", "real-time call (us)", "predict() call (us)"],
-                            out / "speed.png", "Training and inference time (log scale)")]
+                            out / "speed.png", "Training and inference time", quantity="time")]
 
 
 def main(argv: list[str] | None = None) -> dict:
