@@ -83,8 +83,7 @@ class InputFeaturesConfig:
     @classmethod
     def quick(cls, seed: int = 0, **changes) -> "InputFeaturesConfig":
         """Two sparsities, 18 minutes of operation, the 2 longest sets, few large-DNN epochs."""
-        session = OperationSessionConfig(seed=seed, hours=0.3, sparsities=(1 / 2, 1 / 3), eval_stride=10,
-                                         block_hours=0.1)
+        session = OperationSessionConfig.quick(seed)
         return cls(**{"session": session, "n_longest": 2, "large_dnn_epochs": 10,
                       "settings": MethodSettings.quick(), **changes})
 

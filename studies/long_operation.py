@@ -59,8 +59,7 @@ class LongOperationConfig:
     @classmethod
     def quick(cls, seed: int = 0, **changes) -> "LongOperationConfig":
         """Two sparsities (1/2, 1/3), 18 minutes of operation scored in 6-minute blocks, one DNN seed."""
-        session = OperationSessionConfig(seed=seed, hours=0.3, sparsities=(1 / 2, 1 / 3), eval_stride=10,
-                                         block_hours=0.1)
+        session = OperationSessionConfig.quick(seed)
         return cls(**{"session": session, "settings": MethodSettings.quick(), **changes})
 
 

@@ -49,8 +49,7 @@ class TrainOnErrorConfig:
     @classmethod
     def quick(cls, seed: int = 0, **changes) -> "TrainOnErrorConfig":
         """Two sparsities, 18 minutes of operation in 6-minute blocks, one DNN seed."""
-        session = OperationSessionConfig(seed=seed, hours=0.3, sparsities=(1 / 2, 1 / 3), eval_stride=10,
-                                         block_hours=0.1)
+        session = OperationSessionConfig.quick(seed)
         return cls(**{"session": session, "settings": MethodSettings.quick(), **changes})
 
 

@@ -8,6 +8,8 @@ folder as it was. A run that succeeds replaces the previous results as a whole.
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
 import json
 import os
 import subprocess
@@ -89,6 +91,7 @@ IN_PROCESS_MISTAKES = [
     ("compare_sota", ["--test-data", "{tmp}/corrupt.parquet"], "--test-data needs --data"),
     ("compare_sota", ["--data", "{tmp}/a_file.txt"], "unknown data file type"),
     ("compare_sota", ["--backend", "cluster"], "--backend"),
+    ("homing", ["--scheduler", "tcp://localhost:8786"], "--scheduler needs --backend dask"),
     ("discrepancy", ["--hidden-effect", "backlash", "--seed", "-3"], "--seed"),
     ("discrepancy", ["--hidden-effect", "backlash", "--duration", "nan"], "--duration"),
     ("discrepancy", ["--measured", "{tmp}/missing"], "no file or folder"),
@@ -103,8 +106,6 @@ IN_PROCESS_MISTAKES = [
 @pytest.mark.parametrize("script, arguments, named", IN_PROCESS_MISTAKES,
                          ids=[f"{s}{' '.join(a).replace('{tmp}', '')}" for s, a, _ in IN_PROCESS_MISTAKES])
 def test_more_mistakes_in_process(workspace, capsys, script, arguments, named):
-    import importlib
-
     main = importlib.import_module(f"studies.{script}").main
     arguments = [a.replace("{tmp}", str(workspace)) for a in arguments] + ["--out", str(workspace / "previous")]
     before = _tree(workspace)
@@ -114,6 +115,15 @@ def test_more_mistakes_in_process(workspace, capsys, script, arguments, named):
     assert exit_info.value.code == 2
     assert len(lines) == 1 and named in lines[0], lines
     assert _tree(workspace) == before
+
+
+@pytest.mark.skipif(importlib.util.find_spec("ray") is not None, reason="Ray is installed here")
+def test_a_cluster_backend_that_is_not_installed_is_named(workspace, capsys):
+    from studies import sparsity
+
+    with pytest.raises(SystemExit) as exit_info:
+        sparsity.main(["--backend", "ray", "--out", str(workspace / "previous")])
+    assert exit_info.value.code == 2 and "pip install" in capsys.readouterr().err
 
 
 def _parser() -> runner.StudyParser:

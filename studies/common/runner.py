@@ -21,6 +21,7 @@ and nothing partial.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import shutil
 import sys
@@ -220,6 +221,7 @@ class StudyRun:
             fail(self.prog, str(error))
         self.out = Path(self.args.out)
         self._check_out()
+        self._check_backend()
         self.folder: Path | None = None
         self.runtime_s: float | None = None
         self.started = reporting.now_iso()
@@ -234,6 +236,15 @@ class StudyRun:
         """``n_jobs``, ``backend``, ``scheduler`` and ``progress`` from the shared options."""
         a = self.args
         return {"n_jobs": a.jobs, "backend": a.backend, "scheduler": a.scheduler, "progress": not a.no_progress}
+
+    def _check_backend(self) -> None:
+        backend, scheduler = getattr(self.args, "backend", None), getattr(self.args, "scheduler", None)
+        if scheduler is not None and backend != "dask":
+            fail(self.prog, "--scheduler needs --backend dask")
+        needs = {"ray": ("ray", "pip install 'ray[default]'"), "dask": ("distributed", "pip install dask distributed")}
+        if backend in needs and importlib.util.find_spec(needs[backend][0]) is None:
+            module, command = needs[backend]
+            fail(self.prog, f"--backend {backend} needs {module}, which is not installed: {command}")
 
     def _check_out(self) -> None:
         out = self.out

@@ -2,8 +2,9 @@
 
 A session is one powered-on robot: calibration zig-zags recorded sparsity by sparsity (so that
 any combination of them can be a training set, as in the paper's Figs. 5, 6 and 8), then the
-test motions of the study, e.g. hours of operation (:func:`operation_session`). Every session is determined by its seed; the functions here are
-module-level so that sweeps can run sessions in worker processes.
+test motions of the study, e.g. hours of operation (:func:`operation_session`). Every session is
+determined by its seed; the functions here are module-level so that sweeps can run sessions in
+worker processes.
 """
 
 from __future__ import annotations
@@ -131,6 +132,11 @@ class OperationSessionConfig:
                 raise ValueError(f"{name} must be positive, got {value}")
         if int(self.eval_stride) != self.eval_stride or self.eval_stride < 1:
             raise ValueError(f"eval_stride must be a positive integer, got {self.eval_stride}")
+
+    @classmethod
+    def quick(cls, seed: int = 0) -> "OperationSessionConfig":
+        """Two sparsities (1/2, 1/3), 18 minutes of operation scored in 6-minute blocks."""
+        return cls(seed=seed, hours=0.3, sparsities=(1 / 2, 1 / 3), eval_stride=10, block_hours=0.1)
 
 
 def operation_session(kind: str, seed: int, session: OperationSessionConfig,
