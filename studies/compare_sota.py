@@ -11,34 +11,39 @@ joints taken as exact as in the paper. Tables shaped like the paper's Tables III
 published rows beside the simulated ones.
 
 ``--data PATH`` runs the same comparison on recorded data (ROS bag folder, dataset file or the
-dVRK folder format); ``--quick`` gives a first look in about 90 s on 2 cores.
+dVRK folder format); ``--quick`` gives a first look in about 90 s on 2 cores. The terminal shows
+a summary (RMSE per method and joint, for each test); ``report.md`` in ``--out`` holds the full
+tables beside the paper's.
 """
 
 from __future__ import annotations
 
-import sys
-import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a script: make the project's packages importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from simulation.trajectories import PAPER_SPARSITIES  # noqa: E402
-from studies.common import paper_numbers as paper  # noqa: E402
-from studies.common import plots, reporting  # noqa: E402
-from studies.common.cli import say, study_parser  # noqa: E402
-from studies.common.data_sources import (  # noqa: E402
+from simulation.trajectories import PAPER_SPARSITIES
+from studies.common import paper_numbers as paper
+from studies.common import plots, reporting
+from studies.common.data_sources import (
     DEFAULT_TEST_FRACTION,
     ComparisonData,
     recorded_comparison,
     simulated_comparison,
 )
-from studies.common.evaluation import CARTESIAN_HEADERS, JOINT_HEADERS, JOINT_UNITS  # noqa: E402
-from studies.common.methods import ALL_METHODS, MethodSettings, method_catalogue  # noqa: E402
-from studies.common.training import MethodRun, run_methods  # noqa: E402
+from studies.common.evaluation import CARTESIAN_HEADERS, JOINT_HEADERS, JOINT_UNITS
+from studies.common.methods import ALL_METHODS, MODEL_LABELS, MethodSettings, method_catalogue
+from studies.common.runner import (
+    StudyRun,
+    existing_path,
+    names,
+    open_fraction,
+    positive_int,
+    say,
+    study_parser,
+)
+from studies.common.training import MethodRun, run_methods
 
 STUDY = "compare_sota"
 
@@ -177,10 +182,8 @@ def joint_table(comparison: Comparison, test: str) -> tuple[list[str], list[list
         else:
             rows.append([_row_label(m), robot, m.model, run.note, None, None, None])
     if robot == "virtual RAVEN-II":
-        labels = {"dnn": "DNN", "polynomial": "2nd Reg", "linear": "Lin Reg", "fixed_offset": "Fixed Offset",
-                  "raw": "Raw"}
         for key, values in paper.TABLE_I["J2-J3"].items():
-            rows.append(["Ours, Table I (J2-J3)", "RAVEN-II", labels[key], f"{reporting.PUBLISHED}, unloaded",
+            rows.append(["Ours, Table I (J2-J3)", "RAVEN-II", MODEL_LABELS[key], f"{reporting.PUBLISHED}, unloaded",
                          *values])
     for entry in paper.TABLE_III:
         rows.append([entry["method"], entry["robot"], entry["model"], f"{reporting.PUBLISHED} (Table III, unloaded)",
@@ -256,7 +259,7 @@ def finding(document: dict) -> str:
 
 
 def write_outputs(comparison: Comparison, document: dict, out: Path) -> list[Path]:
-    """results.json, report.md and the figures; returns the written paths."""
+    """results.json, report.md and the figures in the folder ``out``; returns the written paths."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     figures = []
@@ -319,59 +322,70 @@ def report_markdown(comparison: Comparison, document: dict, figures: list[Path],
     return "\n".join(parts)
 
 
-def print_tables(comparison: Comparison, document: dict) -> None:
-    for test in comparison.tests:
-        print(f"\n== {test} test: RMSE per joint (Table III layout)")
-        print(reporting.markdown_table(*joint_table(comparison, test)))
-        print(f"\n== {test} test: tool-tip RMSE, last joints exact (Table IV layout)")
-        print(reporting.markdown_table(*cartesian_table(comparison, test)))
-    print()
-    print(finding(document))
+def summary_table(document: dict) -> str:
+    """The terminal's table: RMSE of joints 1-3 (deg, deg, mm) per method, one column group per test."""
+    tests = document["tests"]
+    labels = {key: method["label"] for key, method in document["methods"].items()}
+    title = "RMSE (deg, deg, mm)"
+    width = max(len(title), *(len(label) for label in labels.values()))
+    header = " " * width + "".join(f"  {test + ' test':^23}" for test in tests)
+    units = f"{title:<{width}}" + "".join("       J1      J2      J3" for _ in tests)
+    lines = [header, units]
+    for key, label in labels.items():
+        cells = []
+        for test in tests:
+            values = document[test]["joint_rmse"][key]
+            cells.append("".join(f"{v:8.3f}" for v in values) if values is not None else f"{'-':>8}" * 3)
+        note = "" if document["methods"][key]["status"] == "ok" else f"  ({document['methods'][key]['note']})"
+        lines.append(f"{label:<{width}}" + "".join(f" {cell}" for cell in cells) + note)
+    return "\n".join(lines)
+
+
+def configure(args) -> CompareConfig:
+    if args.test_data is not None and args.data is None:
+        raise ValueError("--test-data needs --data (the training recording)")
+    config = CompareConfig.quick(args.seed) if args.quick else CompareConfig(seed=args.seed)
+    settings = config.settings if args.dnn_seeds is None else config.settings.with_(dnn_seeds=args.dnn_seeds)
+    return replace(config, methods=args.methods, settings=settings)
 
 
 def main(argv: list[str] | None = None) -> dict:
-    parser = study_parser(STUDY, __doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=None,
+    parser = study_parser(STUDY, __doc__)
+    parser.add_argument("--data", type=existing_path, default=None,
                         help="recorded data instead of the simulator: a ROS bag folder, a dataset file "
                              "(.parquet/.csv), a .bag, or a dVRK data folder")
-    parser.add_argument("--test-data", type=Path, default=None,
+    parser.add_argument("--test-data", type=existing_path, default=None,
                         help="with --data: a separate test recording (default: the last --test-fraction)")
-    parser.add_argument("--test-fraction", type=float, default=DEFAULT_TEST_FRACTION,
+    parser.add_argument("--test-fraction", type=open_fraction, default=DEFAULT_TEST_FRACTION,
                         help="with --data: fraction of the rows held out (the last ones in time)")
     parser.add_argument("--arm", choices=("left", "right"), default="left", help="with --data: the arm")
-    parser.add_argument("--methods", default=",".join(ALL_METHODS),
+    parser.add_argument("--methods", type=names(ALL_METHODS, "method"), default=",".join(ALL_METHODS),
                         help=f"comma-separated method keys among {', '.join(ALL_METHODS)}")
-    parser.add_argument("--dnn-seeds", type=int, default=None, help="network training seeds to average")
-    args = parser.parse_args(argv)
-
-    methods = tuple(dict.fromkeys(m.strip() for m in args.methods.split(",") if m.strip()))
-    config = CompareConfig.quick(args.seed) if args.quick else CompareConfig(seed=args.seed)
-    settings = config.settings if args.dnn_seeds is None else config.settings.with_(dnn_seeds=args.dnn_seeds)
-    config = replace(config, methods=methods, settings=settings)
-
-    started, clock = reporting.now_iso(), time.perf_counter()
-    if args.data is None:
-        say(f"simulating the paper's protocol on the virtual RAVEN-II ({config.direction}, "
-            f"{len(config.sparsities)} sparsities, {config.test_duration:.0f} s tests)...")
-        data = simulated_comparison(config.seed, config.direction, config.sparsities, config.test_duration,
-                                    config.payload_kg)
-    else:
-        say(f"reading {args.data}...")
-        data = recorded_comparison(args.data, test_path=args.test_data, arm=args.arm,
-                                   test_fraction=args.test_fraction)
-    say(f"data ready after {time.perf_counter() - clock:.0f} s: {data.describe()}")
-    comparison = compare(data, config, n_jobs=args.jobs, backend=args.backend, scheduler=args.scheduler,
-                         progress=not args.no_progress)
-    runtime = time.perf_counter() - clock
-    run_options = {"quick": args.quick, "data": None if args.data is None else str(args.data),
-                   "jobs": args.jobs, "backend": args.backend}
-    document = results_document(comparison, config, started=started, runtime_s=runtime,
-                                command=reporting.command_line(), run_options=run_options)
-    paths = write_outputs(comparison, document, args.out)
-    print_tables(comparison, document)
-    say(f"done in {time.perf_counter() - clock:.0f} s; wrote {', '.join(str(p) for p in paths[:2])} "
-        f"and {len(paths) - 2} figures")
-    return document
+    parser.add_argument("--dnn-seeds", type=positive_int, default=None, help="network training seeds to average")
+    with StudyRun(parser, argv, configure) as study:
+        args, config = study.args, study.config
+        if args.data is None:
+            say(f"simulating the paper's protocol on the virtual RAVEN-II ({config.direction}, "
+                f"{len(config.sparsities)} sparsities, {config.test_duration:.0f} s tests)...")
+            data = simulated_comparison(config.seed, config.direction, config.sparsities, config.test_duration,
+                                        config.payload_kg)
+        else:
+            with study.reading(args.data if args.test_data is None else f"{args.data} or {args.test_data}"):
+                data = recorded_comparison(args.data, test_path=args.test_data, arm=args.arm,
+                                           test_fraction=args.test_fraction)
+        say(f"data ready: {data.describe()}")
+        comparison = compare(data, config, **study.parallel)
+        run_options = {"quick": args.quick, "data": None if args.data is None else str(args.data),
+                       "jobs": args.jobs, "backend": args.backend}
+        document = results_document(comparison, config, started=study.started, runtime_s=study.stop_clock(),
+                                    command=reporting.command_line(), run_options=run_options)
+        write_outputs(comparison, document, study.folder)
+        study.publish()
+        print(summary_table(document))
+        print()
+        print(finding(document))
+        study.done()
+        return document
 
 
 if __name__ == "__main__":

@@ -11,32 +11,25 @@ Run: ``python studies/directions.py [--quick] [--out DIR] [--jobs N] [--backend 
 
 from __future__ import annotations
 
-import sys
-import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a script: make the project's packages importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from simulation import powered_on, record_calibration, record_random_test  # noqa: E402
-from simulation.trajectories import PAPER_SPARSITIES  # noqa: E402
-from studies.common import paper_numbers as paper  # noqa: E402
-from studies.common import plots, reporting  # noqa: E402
-from studies.common.cli import say, study_parser  # noqa: E402
-from studies.common.evaluation import JOINT_HEADERS, percentage_of  # noqa: E402
-from studies.common.methods import Method, MethodSettings, dnn, raw, regression  # noqa: E402
-from studies.common.samples import Samples  # noqa: E402
-from studies.common.sessions import samples_of  # noqa: E402
-from studies.common.sweeps import run_tasks  # noqa: E402
-from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
+from simulation import powered_on, record_calibration, record_random_test
+from simulation.trajectories import PAPER_SPARSITIES
+from studies.common import paper_numbers as paper
+from studies.common import plots, reporting
+from studies.common.evaluation import JOINT_HEADERS, percentage_of
+from studies.common.methods import MODEL_LABELS, Method, MethodSettings, dnn, raw, regression
+from studies.common.runner import StudyRun, names, positive_int, say, study_parser
+from studies.common.samples import Samples
+from studies.common.sessions import samples_of, spawn_seeds
+from studies.common.sweeps import run_tasks
+from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse
 
 STUDY = "directions"
 MODELS = ("dnn", "polynomial", "linear", "fixed_offset", "raw")
-MODEL_LABELS = {"dnn": "DNN", "polynomial": "2nd Reg", "linear": "Lin Reg", "fixed_offset": "Fixed Offset",
-                "raw": "Raw"}
 LEARNED = ("dnn", "polynomial", "linear")
 
 
@@ -79,9 +72,8 @@ def _methods(settings: MethodSettings) -> dict[str, Method]:
 
 def session_seeds(config: DirectionsConfig) -> dict[str, int]:
     """Seed of each direction's session (independent sessions, as the paper recorded them)."""
-    streams = np.random.SeedSequence(config.seed).spawn(len(paper.TABLE_I_DIRECTIONS))
-    return {d: int(streams[paper.TABLE_I_DIRECTIONS.index(d)].generate_state(1)[0]) % (2**31 - 2)
-            for d in config.directions}
+    seeds = spawn_seeds(config.seed, len(paper.TABLE_I_DIRECTIONS))
+    return {d: seeds[paper.TABLE_I_DIRECTIONS.index(d)] for d in config.directions}
 
 
 def run(config: DirectionsConfig, *, n_jobs: int = -1, backend: str = "loky", scheduler: str | None = None,
@@ -156,9 +148,7 @@ def tables(results: dict) -> list[str]:
         sections += [f"## {joint}", "", reporting.markdown_table(headers, rows), ""]
     sections.append("Percentages are of the fixed-offset RMSE of the same direction, as in the paper; "
                     "'sim' is simulated here, 'paper' is the paper's Table I.")
-    if results["failures"]:
-        sections += ["", "Failed training runs:", *[f"- {line}" for line in results["failures"]]]
-    return sections
+    return sections + reporting.failure_lines(results["failures"])
 
 
 def figures(results: dict, out: Path) -> list[Path]:
@@ -171,29 +161,25 @@ def figures(results: dict, out: Path) -> list[Path]:
                                "RMSE by calibration direction (paper, Table I)")]
 
 
-def main(argv: list[str] | None = None) -> dict:
-    parser = study_parser(STUDY, __doc__.splitlines()[0])
-    parser.add_argument("--directions", default=",".join(paper.TABLE_I_DIRECTIONS), help="comma-separated")
-    parser.add_argument("--dnn-seeds", type=int, default=None, help="network training seeds to average")
-    args = parser.parse_args(argv)
-    directions = tuple(d.strip() for d in args.directions.split(",") if d.strip())
-    config = (DirectionsConfig.quick if args.quick else DirectionsConfig)(seed=args.seed, directions=directions)
+def configure(args) -> DirectionsConfig:
+    config = (DirectionsConfig.quick if args.quick else DirectionsConfig)(seed=args.seed, directions=args.directions)
     if args.dnn_seeds is not None:
         config = replace(config, settings=config.settings.with_(dnn_seeds=args.dnn_seeds))
-    started, clock = reporting.now_iso(), time.perf_counter()
-    say(f"{len(config.directions)} directions x {len(config.sparsities)} sparsities, "
-        f"{config.test_duration:.0f} s tests")
-    results = run(config, n_jobs=args.jobs, backend=args.backend, scheduler=args.scheduler,
-                  progress=not args.no_progress)
-    document = reporting.study_document(STUDY, config, started, time.perf_counter() - clock, **results)
-    document["finding"] = finding(results)
-    document["published"] = {"table_i": paper.TABLE_I}
-    paths = reporting.write_study(args.out, document, "Directions of calibration trajectories (Table I)",
-                                  tables(results), figures(results, args.out))
-    print("\n".join(tables(results)))
-    print(document["finding"])
-    say(f"wrote {args.out} ({len(paths)} files) in {time.perf_counter() - clock:.0f} s")
-    return document
+    return config
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = study_parser(STUDY, __doc__)
+    parser.add_argument("--directions", type=names(paper.TABLE_I_DIRECTIONS, "direction"),
+                        default=",".join(paper.TABLE_I_DIRECTIONS), help="comma-separated")
+    parser.add_argument("--dnn-seeds", type=positive_int, default=None, help="network training seeds to average")
+    with StudyRun(parser, argv, configure) as study:
+        config = study.config
+        say(f"{len(config.directions)} directions x {len(config.sparsities)} sparsities, "
+            f"{config.test_duration:.0f} s tests")
+        results = run(config, **study.parallel)
+        return study.conclude(results, title="Directions of calibration trajectories (Table I)", finding=finding,
+                              tables=tables, figures=figures, extra={"published": {"table_i": paper.TABLE_I}})
 
 
 if __name__ == "__main__":

@@ -14,34 +14,34 @@ identified from the data is the start), or the dVRK folder format (nominal model
 joints = commanded joints; wrist joints 4-6 by default).
 
 Every run writes ``DIR/report.json``, ``DIR/report.md`` and PNG plots, and exits 0 whenever the
-workflow ran, whatever it found.
+workflow ran, whatever it found; a mistake in the arguments or an unreadable input file gets one
+line and exit status 2, before any work and with nothing written.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
-import time
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a script: make the project's packages importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from simulation.discrepancy import (  # noqa: E402
-    DiscrepancyResult,
-    LIBRARY_NAMES,
-    localize,
-    run_hidden_effect,
-    run_on_dvrk,
-    run_on_raven_dataset,
-    strongest_dependence,
+from simulation.discrepancy import LIBRARY_NAMES, DiscrepancyResult, localize, strongest_dependence
+from simulation.discrepancy.signals import pooled_rmse, report_scale
+from simulation.model.effects import EFFECT_NAMES
+from simulation.recordings.dataset import CalibrationDataset
+from studies.common.data_sources import is_dvrk_folder, recorded_datasets
+from studies.common.discrepancy_runs import run_hidden_effect, run_on_dvrk, run_on_raven_dataset
+from studies.common.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text
+from studies.common.runner import (
+    StudyRun,
+    existing_path,
+    non_negative_int,
+    positive_float,
+    positive_int,
+    script_parser,
 )
-from simulation.discrepancy.signals import pooled_rmse, report_scale  # noqa: E402
-from simulation.model.effects import EFFECT_NAMES  # noqa: E402
-from studies.common.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text  # noqa: E402
 
+STUDY = "discrepancy"
 HIDDEN_CHOICES = ("none",) + tuple(n for n in EFFECT_NAMES if n not in ("cable_stretch", "quantization", "noise",
                                                                          "homing_offset"))
 SWEEP_EFFECTS = ("none", "backlash", "coulomb_friction", "viscous_friction", "hysteresis", "gravity_stretch",
@@ -60,30 +60,21 @@ def parse_hidden(text: str) -> tuple[str, ...]:
     return names
 
 
-def _is_dvrk(path: Path) -> bool:
-    return path.is_dir() and ((path / "random_unfiltered" / "q_des.npy").exists() or (path / "q_des.npy").exists())
-
-
 def read_raven_dataset(path: Path, arm: str = "left"):
     """A RAVEN-II dataset from a bag, a folder of bags or dataset files, or one dataset file."""
-    from simulation.recordings.dataset import CalibrationDataset, synchronize
-    from simulation.recordings.bags import read_bag, read_bag_folder
+    datasets, _ = recorded_datasets(path, arm)
+    return CalibrationDataset.concat(datasets) if Path(path).is_dir() else datasets[0]
 
-    if path.is_dir():
-        bags = sorted(path.glob("*.bag"))
-        tables = sorted(path.glob("*.parquet"))
-        if bags:
-            return CalibrationDataset.concat([synchronize(s, t, arm) for _, s, t in read_bag_folder(path, arm)])
-        if tables:
-            return CalibrationDataset.concat([CalibrationDataset.read_parquet(p) for p in tables])
-        raise FileNotFoundError(f"{path} holds no .bag or .parquet file and is not a dVRK data folder")
-    if not path.exists():
-        raise FileNotFoundError(f"no file or folder {path}")
-    if path.suffix == ".bag":
-        return synchronize(*read_bag(path, arm), arm)
-    if path.suffix == ".parquet":
-        return CalibrationDataset.read_parquet(path)
-    raise ValueError(f"{path}: unknown data file type {path.suffix!r} (expected .bag, .parquet, or a folder)")
+
+def joint_numbers(text: str) -> tuple[int, ...]:
+    """``"4,5,6"`` -> (4, 5, 6): dVRK joints, numbered 1 to 6."""
+    try:
+        joints = tuple(int(j) for j in text.split(",") if j.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected joint numbers 1-6 separated by commas, got {text!r}") from None
+    if not joints or any(not 1 <= j <= 6 for j in joints) or len(set(joints)) != len(joints):
+        raise argparse.ArgumentTypeError(f"expected distinct joint numbers 1-6 separated by commas, got {text!r}")
+    return joints
 
 
 def _scaled(values, units) -> list[float]:
@@ -167,7 +158,8 @@ def _plots(result: DiscrepancyResult, signals, split, out: Path) -> list[Path]:
 
 
 def write_report(result: DiscrepancyResult, signals, split, source: dict, out: Path, runtime_s: float) -> list[Path]:
-    """Write ``report.json``, ``report.md`` and the plots of one workflow run."""
+    """Write ``report.json``, ``report.md`` and the plots of one workflow run in the folder ``out``."""
+    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     document = report_document(result, source, runtime_s)
     json_path = write_json(out / "report.json", document)
@@ -248,45 +240,48 @@ def sweep(effects, seeds, duration: float, out: Path) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python studies/discrepancy.py", description=__doc__.split("\n")[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = script_parser(STUDY, __doc__)
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--hidden-effect", type=parse_hidden, metavar="NAME",
                         help=f"'none' or effects to hide, comma-separated: {', '.join(HIDDEN_CHOICES[1:])}")
-    source.add_argument("--measured", type=Path, metavar="PATH",
+    source.add_argument("--measured", type=existing_path, metavar="PATH",
                         help="recorded data: bag(s), dataset file(s), or the dVRK folder format")
     source.add_argument("--sweep", action="store_true", help="confusion matrix of hidden vs named effects")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--seeds", type=int, default=3, help="seeds per effect for --sweep")
-    parser.add_argument("--duration", type=float, default=240.0, help="seconds of generated random motion")
-    parser.add_argument("--joints", default="4,5,6", help="dVRK joints (1-6) to study")
+    parser.add_argument("--seed", type=non_negative_int, default=0)
+    parser.add_argument("--seeds", type=positive_int, default=3, help="seeds per effect for --sweep")
+    parser.add_argument("--duration", type=positive_float, default=240.0, help="seconds of generated random motion")
+    parser.add_argument("--joints", type=joint_numbers, default="4,5,6", help="dVRK joints (1-6) to study")
     parser.add_argument("--arm", default="left", choices=("left", "right"))
     parser.add_argument("--out", type=Path, default=Path("results") / "discrepancy")
-    args = parser.parse_args(argv)
-
-    started = time.perf_counter()
-    if args.sweep:
-        sweep(SWEEP_EFFECTS, range(args.seed, args.seed + args.seeds), args.duration, args.out)
-        return 0
-    if args.hidden_effect is not None:
-        result, signals, split, generator = run_hidden_effect(args.hidden_effect, seed=args.seed,
-                                                              duration=args.duration)
-        source = {"kind": "simulated", "hidden": list(args.hidden_effect), "seed": args.seed,
-                  "duration_s": args.duration,
-                  "description": f"virtual RAVEN-II with hidden {', '.join(args.hidden_effect) or 'nothing'}"}
-    elif _is_dvrk(args.measured):
-        joints = tuple(int(j) - 1 for j in args.joints.split(","))
-        root = args.measured.parent if (args.measured / "q_des.npy").exists() else args.measured
-        result, signals, split = run_on_dvrk(root, joints)
-        source = {"kind": "dvrk", "path": str(args.measured), "joints": [j + 1 for j in joints],
-                  "description": f"dVRK data of Hwang et al. 2020, joints {args.joints} "
-                                 "(fit on random motion, held out: peg transfer)"}
-    else:
-        dataset = read_raven_dataset(args.measured, args.arm)
-        result, signals, split = run_on_raven_dataset(dataset)
-        source = {"kind": "raven", "path": str(args.measured), "description": f"RAVEN-II data {args.measured}"}
-    runtime = time.perf_counter() - started
-    paths = write_report(result, signals, split, source, args.out, runtime)
+    with StudyRun(parser, argv) as study:
+        args = study.args
+        if args.sweep:
+            sweep(SWEEP_EFFECTS, range(args.seed, args.seed + args.seeds), args.duration, study.folder)
+            study.publish()
+            study.done()
+            return 0
+        if args.hidden_effect is not None:
+            result, signals, split, generator = run_hidden_effect(args.hidden_effect, seed=args.seed,
+                                                                  duration=args.duration)
+            source = {"kind": "simulated", "hidden": list(args.hidden_effect), "seed": args.seed,
+                      "duration_s": args.duration,
+                      "description": f"virtual RAVEN-II with hidden {', '.join(args.hidden_effect) or 'nothing'}"}
+        elif is_dvrk_folder(args.measured):
+            joints = tuple(j - 1 for j in args.joints)
+            root = args.measured.parent if (args.measured / "q_des.npy").exists() else args.measured
+            with study.reading(args.measured):
+                result, signals, split = run_on_dvrk(root, joints)
+            text = ",".join(str(j) for j in args.joints)
+            source = {"kind": "dvrk", "path": str(args.measured), "joints": [j + 1 for j in joints],
+                      "description": f"dVRK data of Hwang et al. 2020, joints {text} "
+                                     "(fit on random motion, held out: peg transfer)"}
+        else:
+            with study.reading(args.measured):
+                dataset = read_raven_dataset(args.measured, args.arm)
+            result, signals, split = run_on_raven_dataset(dataset)
+            source = {"kind": "raven", "path": str(args.measured), "description": f"RAVEN-II data {args.measured}"}
+        write_report(result, signals, split, source, study.folder, study.stop_clock())
+        study.publish()
     units = _unit_names(result.units)
     print(f"named effects: {', '.join(result.named_effects) or 'none'}; unexplained: {result.unexplained}")
     for name, b, a, u in zip(result.joint_names, _scaled(result.gap_before, result.units),
@@ -295,9 +290,9 @@ def main(argv=None) -> int:
     print(f"shrink (pooled, deg and mm): {100 * result.shrink:.1f} %   "
           f"[{pooled_rmse(result.residual_before.joints, result.units):.4f} -> "
           f"{pooled_rmse(result.residual_after.joints, result.units):.4f}]")
-    print(f"wrote {', '.join(str(p) for p in paths)}")
+    study.done()
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

@@ -16,32 +16,26 @@ Run: ``python studies/homing.py [--quick] [--out DIR] [--jobs N] [--backend loky
 
 from __future__ import annotations
 
-import sys
-import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a script: make the project's packages importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from simulation import powered_on, record_calibration, record_random_test, rehome  # noqa: E402
-from simulation.trajectories import PAPER_SPARSITIES  # noqa: E402
-from studies.common import paper_numbers as paper  # noqa: E402
-from studies.common import plots, reporting  # noqa: E402
-from studies.common.cli import say, study_parser  # noqa: E402
-from studies.common.evaluation import JOINT_HEADERS  # noqa: E402
-from studies.common.methods import MethodSettings, dnn, regression  # noqa: E402
-from studies.common.samples import Samples  # noqa: E402
-from studies.common.sessions import samples_of  # noqa: E402
-from studies.common.sweeps import run_tasks  # noqa: E402
-from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
+from simulation import powered_on, record_calibration, record_random_test, rehome
+from simulation.trajectories import PAPER_SPARSITIES
+from studies.common import paper_numbers as paper
+from studies.common import plots, reporting
+from studies.common.evaluation import JOINT_HEADERS
+from studies.common.methods import MODEL_LABELS, MethodSettings, dnn, regression
+from studies.common.runner import StudyRun, positive_int, say, study_parser
+from studies.common.samples import Samples
+from studies.common.sessions import samples_of, spawn_seeds
+from studies.common.sweeps import run_tasks
+from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse
 
 STUDY = "homing"
 SEEN = (0, 1)
 MODELS = ("dnn", "linear", "fixed_offset")
-MODEL_LABELS = {"dnn": "DNN", "linear": "Lin Reg", "fixed_offset": "Fixed Offset"}
 
 
 @dataclass(frozen=True)
@@ -90,7 +84,8 @@ def homing_session(seen: int, seed: int, config: HomingConfig) -> tuple[Samples,
 def run(config: HomingConfig, *, n_jobs: int = -1, backend: str = "loky", scheduler: str | None = None,
         progress: bool = True) -> dict:
     """Simulate both sessions, train each model, score after every homing."""
-    seeds = [int(s.generate_state(1)[0]) % (2**31 - 64) for s in np.random.SeedSequence(config.seed).spawn(2)]
+    # below 2**31 with room for the seeds of the tests after each homing (seed + 1 + k)
+    seeds = spawn_seeds(config.seed, len(SEEN), modulus=2**31 - 64)
     sessions = run_tasks(homing_session, [(seen, seeds[seen], config) for seen in SEEN], n_jobs=n_jobs,
                          backend=backend, scheduler=scheduler, progress=progress, description="sessions")
     methods = {"dnn": dnn(config.settings), "linear": regression("linear"),
@@ -136,9 +131,7 @@ def tables(results: dict) -> list[str]:
     sections.append("'homing 0' is the test before the first re-homing; 'seen 1' trained on zig-zags recorded "
                     "before and after the first re-homing. The paper gives this experiment as a figure (Fig. 9); "
                     "its numbers are not available here.")
-    if results["failures"]:
-        sections += ["", "Failed training runs:", *[f"- {line}" for line in results["failures"]]]
-    return sections
+    return sections + reporting.failure_lines(results["failures"])
 
 
 def figures(results: dict, out: Path) -> list[Path]:
@@ -150,25 +143,22 @@ def figures(results: dict, out: Path) -> list[Path]:
                                     "RMSE after each re-homing", "re-homings before the test", log_scale=True)]
 
 
-def main(argv: list[str] | None = None) -> dict:
-    parser = study_parser(STUDY, __doc__.splitlines()[0])
-    parser.add_argument("--dnn-seeds", type=int, default=None, help="network training seeds to average")
-    args = parser.parse_args(argv)
+def configure(args) -> HomingConfig:
     config = (HomingConfig.quick if args.quick else HomingConfig)(seed=args.seed)
     if args.dnn_seeds is not None:
         config = replace(config, settings=config.settings.with_(dnn_seeds=args.dnn_seeds))
-    started, clock = reporting.now_iso(), time.perf_counter()
-    say(f"2 sessions x {config.n_homings} re-homings, {config.test_duration:.0f} s tests")
-    results = run(config, n_jobs=args.jobs, backend=args.backend, scheduler=args.scheduler,
-                  progress=not args.no_progress)
-    document = reporting.study_document(STUDY, config, started, time.perf_counter() - clock, **results)
-    document["finding"] = finding(results)
-    paths = reporting.write_study(args.out, document, "Effects of homing (Fig. 9)", tables(results),
-                                  figures(results, args.out))
-    print("\n".join(tables(results)))
-    print(document["finding"])
-    say(f"wrote {args.out} ({len(paths)} files) in {time.perf_counter() - clock:.0f} s")
-    return document
+    return config
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = study_parser(STUDY, __doc__)
+    parser.add_argument("--dnn-seeds", type=positive_int, default=None, help="network training seeds to average")
+    with StudyRun(parser, argv, configure) as study:
+        config = study.config
+        say(f"2 sessions x {config.n_homings} re-homings, {config.test_duration:.0f} s tests")
+        results = run(config, **study.parallel)
+        return study.conclude(results, title="Effects of homing (Fig. 9)", finding=finding, tables=tables,
+                              figures=figures)
 
 
 if __name__ == "__main__":

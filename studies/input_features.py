@@ -13,26 +13,27 @@ Run: ``python studies/input_features.py [--quick] [--hours H] [--out DIR] [--job
 
 from __future__ import annotations
 
-import sys
-import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a script: make the project's packages importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from studies.common import paper_numbers as paper  # noqa: E402
-from studies.common import plots, reporting  # noqa: E402
-from studies.common.cli import say, study_parser  # noqa: E402
-from studies.common.evaluation import JOINT_HEADERS  # noqa: E402
-from studies.long_operation import OperationSessionConfig, kind_seed, longest_sets, operation_session  # noqa: E402
-from estimators import LARGE_HIDDEN_LAYER_SIZES  # noqa: E402
-from studies.common.methods import Method, MethodSettings, dnn, regression  # noqa: E402
-from studies.common.sessions import all_combinations, training_sets  # noqa: E402
-from studies.common.sweeps import run_tasks  # noqa: E402
-from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
+from estimators import LARGE_HIDDEN_LAYER_SIZES
+from studies.common import paper_numbers as paper
+from studies.common import plots, reporting
+from studies.common.evaluation import JOINT_HEADERS
+from studies.common.methods import Method, MethodSettings, dnn, regression
+from studies.common.runner import StudyRun, positive_float, positive_int, say, study_parser
+from studies.common.sessions import (
+    OperationSessionConfig,
+    all_combinations,
+    kind_seed,
+    longest_sets,
+    operation_session,
+    training_sets,
+)
+from studies.common.sweeps import run_tasks
+from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse
 
 STUDY = "input_features"
 VARIANTS = (
@@ -82,8 +83,7 @@ class InputFeaturesConfig:
     @classmethod
     def quick(cls, seed: int = 0, **changes) -> "InputFeaturesConfig":
         """Two sparsities, 18 minutes of operation, the 2 longest sets, few large-DNN epochs."""
-        session = OperationSessionConfig(seed=seed, hours=0.3, sparsities=(1 / 2, 1 / 3), eval_stride=10,
-                                         block_hours=0.1)
+        session = OperationSessionConfig.quick(seed)
         return cls(**{"session": session, "n_longest": 2, "large_dnn_epochs": 10,
                       "settings": MethodSettings.quick(), **changes})
 
@@ -146,9 +146,7 @@ def tables(results: dict) -> list[str]:
                 f"Training sets: {', '.join(results['training_sets'])} (the longest, as the paper averages them). "
                 "Parameters of linear regression are per joint. The paper gives this experiment as a figure "
                 "(Fig. 8); its RMSE values are not available here."]
-    if results["failures"]:
-        sections += ["", "Failed training runs:", *[f"- {line}" for line in results["failures"]]]
-    return sections
+    return sections + reporting.failure_lines(results["failures"])
 
 
 def figures(results: dict, out: Path) -> list[Path]:
@@ -157,12 +155,7 @@ def figures(results: dict, out: Path) -> list[Path]:
                             "Selected vs all input features (mean over hours)")]
 
 
-def main(argv: list[str] | None = None) -> dict:
-    parser = study_parser(STUDY, __doc__.splitlines()[0])
-    parser.add_argument("--hours", type=float, default=None, help="hours of unloaded operation")
-    parser.add_argument("--dnn-seeds", type=int, default=None, help="small-network training seeds to average")
-    parser.add_argument("--large-dnn-seeds", type=int, default=None, help="large-network training seeds")
-    args = parser.parse_args(argv)
+def configure(args) -> InputFeaturesConfig:
     config = InputFeaturesConfig.quick(args.seed) if args.quick else \
         InputFeaturesConfig(session=OperationSessionConfig(seed=args.seed))
     if args.hours is not None:
@@ -171,19 +164,21 @@ def main(argv: list[str] | None = None) -> dict:
         config = replace(config, settings=config.settings.with_(dnn_seeds=args.dnn_seeds))
     if args.large_dnn_seeds is not None:
         config = replace(config, large_dnn_seeds=args.large_dnn_seeds)
-    started, clock = reporting.now_iso(), time.perf_counter()
-    say(f"unloaded session: calibration then {config.session.hours:g} h; {len(VARIANTS)} model/feature variants")
-    results = run(config, n_jobs=args.jobs, backend=args.backend, scheduler=args.scheduler,
-                  progress=not args.no_progress)
-    document = reporting.study_document(STUDY, config, started, time.perf_counter() - clock, **results)
-    document["finding"] = finding(results)
-    document["published"] = {"parameters": PAPER_PARAMETERS}
-    paths = reporting.write_study(args.out, document, "Selected vs all input features (Fig. 8)", tables(results),
-                                  figures(results, args.out))
-    print("\n".join(tables(results)))
-    print(document["finding"])
-    say(f"wrote {args.out} ({len(paths)} files) in {time.perf_counter() - clock:.0f} s")
-    return document
+    return config
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = study_parser(STUDY, __doc__)
+    parser.add_argument("--hours", type=positive_float, default=None, help="hours of unloaded operation")
+    parser.add_argument("--dnn-seeds", type=positive_int, default=None,
+                        help="small-network training seeds to average")
+    parser.add_argument("--large-dnn-seeds", type=positive_int, default=None, help="large-network training seeds")
+    with StudyRun(parser, argv, configure) as study:
+        config = study.config
+        say(f"unloaded session: calibration then {config.session.hours:g} h; {len(VARIANTS)} model/feature variants")
+        results = run(config, **study.parallel)
+        return study.conclude(results, title="Selected vs all input features (Fig. 8)", finding=finding,
+                              tables=tables, figures=figures, extra={"published": {"parameters": PAPER_PARAMETERS}})
 
 
 if __name__ == "__main__":

@@ -8,95 +8,39 @@ trained on every combination of the zig-zags (7 training sets, 194 s to 1002 s) 
 by hour. As in the paper, the summary is the average over the 3 longest training sets.
 
 The operation is scored on every ``eval_stride``-th log sample (10 by default: 3 Hz, 3600
-samples per hour), which keeps 6 hours of the full robot state out of memory.
+samples per hour), which keeps 6 hours of the full robot state out of memory. The sessions are
+:func:`studies.common.sessions.operation_session` (calibration, then the simulator's
+``long_operation`` scenario).
 
 Run: ``python studies/long_operation.py [--quick] [--hours H] [--out DIR] [--jobs N]``
 """
 
 from __future__ import annotations
 
-import sys
-import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a script: make the project's packages importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from simulation import long_operation, powered_on  # noqa: E402
-from simulation.trajectories import PAPER_SPARSITIES  # noqa: E402
-from studies.common import paper_numbers as paper  # noqa: E402
-from studies.common import plots, reporting  # noqa: E402
-from studies.common.cli import say, study_parser  # noqa: E402
-from studies.common.evaluation import JOINT_HEADERS  # noqa: E402
-from studies.common.methods import MethodSettings, dnn, regression  # noqa: E402
-from studies.common.samples import Samples  # noqa: E402
-from studies.common.sessions import all_combinations, by_hour, record_zigzags, samples_of, training_sets  # noqa: E402
-from studies.common.sweeps import run_tasks  # noqa: E402
-from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
+from studies.common import paper_numbers as paper
+from studies.common import plots, reporting
+from studies.common.evaluation import JOINT_HEADERS
+from studies.common.methods import MODEL_LABELS, MethodSettings, dnn, regression
+from studies.common.runner import StudyRun, names, positive_float, positive_int, say, study_parser
+from studies.common.sessions import (
+    KINDS,
+    OperationSessionConfig,
+    all_combinations,
+    kind_seed,
+    longest_sets,
+    operation_session,
+    training_sets,
+)
+from studies.common.sweeps import run_tasks
+from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse
 
 STUDY = "long_operation"
-KINDS = ("idle", "unloaded", "loaded")
 MODELS = ("fixed_offset", "dnn", "linear", "polynomial")
-MODEL_LABELS = {"dnn": "DNN", "polynomial": "2nd Reg", "linear": "Lin Reg", "fixed_offset": "Fixed Offset"}
-
-
-@dataclass(frozen=True)
-class OperationSessionConfig:
-    """A calibration followed by hours of operation (shared by the studies that use it)."""
-
-    seed: int = 0
-    hours: float = 6.0
-    direction: str = "J2-J3"
-    sparsities: tuple[float, ...] = PAPER_SPARSITIES
-    payload_kg: float = 0.5
-    eval_stride: int = 10
-    block_hours: float = 1.0
-
-    def __post_init__(self) -> None:
-        for name in ("hours", "block_hours"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be positive, got {value}")
-        if int(self.eval_stride) != self.eval_stride or self.eval_stride < 1:
-            raise ValueError(f"eval_stride must be a positive integer, got {self.eval_stride}")
-
-
-def operation_session(kind: str, seed: int, session: OperationSessionConfig,
-                      groups: tuple[str, ...] = ("selected",)) -> tuple[dict, dict]:
-    """Calibrate then operate for ``session.hours``: zig-zag samples per sparsity and group, test per hour.
-
-    Returns
-    -------
-    parts : group -> {sparsity: Samples}
-    hours : group -> {"hour 0": Samples, ...} (blocks of ``session.block_hours``), thinned by
-        ``session.eval_stride``.
-    """
-    robot = powered_on(seed=seed)
-    if kind == "loaded":
-        robot.set_payload(session.payload_kg)
-    zigzags = record_zigzags(robot, session.direction, session.sparsities)
-    parts = {group: {} for group in groups}
-    for k, (sparsity, recording) in enumerate(zigzags.items()):
-        for group, samples in samples_of(recording, groups, recording_id=k).items():
-            parts[group][sparsity] = samples
-    operation = long_operation(robot, kind, session.hours, seed=seed + 1, payload_kg=session.payload_kg)
-    tests = samples_of(operation, groups, stride=session.eval_stride)
-    n_blocks = int(np.ceil(session.hours / session.block_hours - 1e-9))
-    return parts, {group: by_hour(samples, n_blocks, session.block_hours) for group, samples in tests.items()}
-
-
-def kind_seed(base_seed: int, kind: str) -> int:
-    """Session seed of one configuration (independent sessions per configuration)."""
-    stream = np.random.SeedSequence(base_seed).spawn(len(KINDS))[KINDS.index(kind)]
-    return int(stream.generate_state(1)[0]) % (2**31 - 2)
-
-
-def longest_sets(train_sets: dict[str, Samples], n: int = 3) -> list[str]:
-    """Labels of the ``n`` training sets with the longest recording time."""
-    return sorted(train_sets, key=lambda label: -train_sets[label].duration)[:n]
 
 
 @dataclass(frozen=True)
@@ -115,8 +59,7 @@ class LongOperationConfig:
     @classmethod
     def quick(cls, seed: int = 0, **changes) -> "LongOperationConfig":
         """Two sparsities (1/2, 1/3), 18 minutes of operation scored in 6-minute blocks, one DNN seed."""
-        session = OperationSessionConfig(seed=seed, hours=0.3, sparsities=(1 / 2, 1 / 3), eval_stride=10,
-                                         block_hours=0.1)
+        session = OperationSessionConfig.quick(seed)
         return cls(**{"session": session, "settings": MethodSettings.quick(), **changes})
 
 
@@ -195,9 +138,7 @@ def tables(results: dict) -> list[str]:
     sections.append(f"Each entry: RMSE averaged over the {len(longest)} longest training sets "
                     f"({', '.join(longest)}) and the network seeds. "
                     "The paper gives this experiment as a figure (Fig. 6); its numbers are not available here.")
-    if results["failures"]:
-        sections += ["", "Failed training runs:", *[f"- {line}" for line in results["failures"]]]
-    return sections
+    return sections + reporting.failure_lines(results["failures"])
 
 
 def figures(results: dict, out: Path) -> list[Path]:
@@ -215,33 +156,30 @@ def figures(results: dict, out: Path) -> list[Path]:
     return paths
 
 
-def main(argv: list[str] | None = None) -> dict:
-    parser = study_parser(STUDY, __doc__.splitlines()[0])
-    parser.add_argument("--hours", type=float, default=None, help="hours of operation")
-    parser.add_argument("--kinds", default=",".join(KINDS), help="comma-separated: idle, unloaded, loaded")
-    parser.add_argument("--dnn-seeds", type=int, default=None, help="network training seeds to average")
-    args = parser.parse_args(argv)
+def configure(args) -> LongOperationConfig:
     config = LongOperationConfig.quick(args.seed) if args.quick else \
         LongOperationConfig(session=OperationSessionConfig(seed=args.seed))
-    kinds = tuple(k.strip() for k in args.kinds.split(",") if k.strip())
-    config = replace(config, kinds=kinds)
+    config = replace(config, kinds=args.kinds)
     if args.hours is not None:
         config = replace(config, session=replace(config.session, hours=args.hours))
     if args.dnn_seeds is not None:
         config = replace(config, settings=config.settings.with_(dnn_seeds=args.dnn_seeds))
-    started, clock = reporting.now_iso(), time.perf_counter()
-    say(f"{', '.join(config.kinds)}: calibration then {config.session.hours:g} h of operation each")
-    results = run(config, n_jobs=args.jobs, backend=args.backend, scheduler=args.scheduler,
-                  progress=not args.no_progress)
-    document = reporting.study_document(STUDY, config, started, time.perf_counter() - clock, **results)
-    document["finding"] = finding(results)
-    document["decay_last_minus_first_hour"] = decay(results)
-    paths = reporting.write_study(args.out, document, "Idle, unloaded and loaded operation (Fig. 6)",
-                                  tables(results), figures(results, args.out))
-    print("\n".join(tables(results)))
-    print(document["finding"])
-    say(f"wrote {args.out} ({len(paths)} files) in {time.perf_counter() - clock:.0f} s")
-    return document
+    return config
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = study_parser(STUDY, __doc__)
+    parser.add_argument("--hours", type=positive_float, default=None, help="hours of operation")
+    parser.add_argument("--kinds", type=names(KINDS, "kind of operation"), default=",".join(KINDS),
+                        help="comma-separated: idle, unloaded, loaded")
+    parser.add_argument("--dnn-seeds", type=positive_int, default=None, help="network training seeds to average")
+    with StudyRun(parser, argv, configure) as study:
+        config = study.config
+        say(f"{', '.join(config.kinds)}: calibration then {config.session.hours:g} h of operation each")
+        results = run(config, **study.parallel)
+        return study.conclude(results, title="Idle, unloaded and loaded operation (Fig. 6)", finding=finding,
+                              tables=tables, figures=figures,
+                              extra={"decay_last_minus_first_hour": decay(results)})
 
 
 if __name__ == "__main__":

@@ -14,30 +14,24 @@ Run: ``python studies/sparsity.py [--quick] [--out DIR] [--jobs N] [--backend lo
 
 from __future__ import annotations
 
-import sys
-import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a script: make the project's packages importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from simulation import powered_on, record_random_test  # noqa: E402
-from studies.common import paper_numbers as paper  # noqa: E402
-from studies.common import plots, reporting  # noqa: E402
-from studies.common.cli import say, study_parser  # noqa: E402
-from studies.common.evaluation import JOINT_HEADERS  # noqa: E402
-from studies.common.methods import MethodSettings, dnn, regression  # noqa: E402
-from studies.common.samples import Samples  # noqa: E402
-from studies.common.sessions import combination_label, record_zigzags, samples_of, training_sets  # noqa: E402
-from studies.common.sweeps import run_tasks  # noqa: E402
-from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
+from simulation import powered_on, record_random_test
+from studies.common import paper_numbers as paper
+from studies.common import plots, reporting
+from studies.common.evaluation import JOINT_HEADERS
+from studies.common.methods import MODEL_LABELS, MethodSettings, dnn, regression
+from studies.common.runner import StudyRun, positive_int, say, study_parser
+from studies.common.samples import Samples
+from studies.common.sessions import combination_label, record_zigzags, samples_of, spawn_seeds, training_sets
+from studies.common.sweeps import run_tasks
+from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse
 
 STUDY = "sparsity"
 MODELS = ("dnn", "polynomial", "linear", "fixed_offset")
-MODEL_LABELS = {"dnn": "DNN", "polynomial": "2nd Reg", "linear": "Lin Reg", "fixed_offset": "Fixed Offset"}
 STUDY_SPARSITIES = (1 / 2, 1 / 3, 1 / 4, 1 / 5, 1 / 6)
 """Sparsities of the study: the paper's 1/6, 1/4, 1/3 and, chosen here, 1/2 and 1/5."""
 PAPER_COMBINATIONS = ((1 / 4, 1 / 3), (1 / 6, 1 / 3), (1 / 6, 1 / 4), (1 / 6, 1 / 4, 1 / 3))
@@ -87,8 +81,7 @@ def sparsity_session(seed: int, direction: str, sparsities: tuple[float, ...],
 def run(config: SparsityConfig, *, n_jobs: int = -1, backend: str = "loky", scheduler: str | None = None,
         progress: bool = True) -> dict:
     """Simulate the sessions, train every model on every training set; the numbers of ``results.json``."""
-    seeds = [int(s.generate_state(1)[0]) % (2**31 - 2)
-             for s in np.random.SeedSequence(config.seed).spawn(config.repeats)]
+    seeds = spawn_seeds(config.seed, config.repeats)
     sessions = run_tasks(sparsity_session, [(s, config.direction, tuple(config.sparsities), config.test_duration)
                                             for s in seeds],
                          n_jobs=n_jobs, backend=backend, scheduler=scheduler, progress=progress,
@@ -151,9 +144,7 @@ def tables(results: dict) -> list[str]:
             ["Training set (sparsities)", "Calibration time (s)", *[MODEL_LABELS[m] for m in MODELS]], rows), ""]
     sections.append("Mean +- standard deviation over independent sessions (each with its own test). "
                     "The paper gives this experiment as a figure (Fig. 5); its numbers are not available here.")
-    if results["failures"]:
-        sections += ["", "Failed training runs:", *[f"- {line}" for line in results["failures"]]]
-    return sections
+    return sections + reporting.failure_lines(results["failures"])
 
 
 def figures(results: dict, out: Path) -> list[Path]:
@@ -167,29 +158,26 @@ def figures(results: dict, out: Path) -> list[Path]:
                                     "calibration time (s)", log_scale=True)]
 
 
-def main(argv: list[str] | None = None) -> dict:
-    parser = study_parser(STUDY, __doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=None, help="independent sessions")
-    parser.add_argument("--dnn-seeds", type=int, default=None, help="network training seeds to average")
-    args = parser.parse_args(argv)
+def configure(args) -> SparsityConfig:
     config = (SparsityConfig.quick if args.quick else SparsityConfig)(seed=args.seed)
     if args.repeats is not None:
         config = replace(config, repeats=args.repeats)
     if args.dnn_seeds is not None:
         config = replace(config, settings=config.settings.with_(dnn_seeds=args.dnn_seeds))
-    started, clock = reporting.now_iso(), time.perf_counter()
-    say(f"{config.repeats} sessions x sparsities {[combination_label((s,)) for s in config.sparsities]}")
-    results = run(config, n_jobs=args.jobs, backend=args.backend, scheduler=args.scheduler,
-                  progress=not args.no_progress)
-    document = reporting.study_document(STUDY, config, started, time.perf_counter() - clock, **results)
-    document["finding"] = finding(results)
-    document["improvement_longest_over_shortest_percent"] = improvement(results)
-    paths = reporting.write_study(args.out, document, "Sparsity and calibration time (Fig. 5)", tables(results),
-                                  figures(results, args.out))
-    print("\n".join(tables(results)))
-    print(document["finding"])
-    say(f"wrote {args.out} ({len(paths)} files) in {time.perf_counter() - clock:.0f} s")
-    return document
+    return config
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = study_parser(STUDY, __doc__)
+    parser.add_argument("--repeats", type=positive_int, default=None, help="independent sessions")
+    parser.add_argument("--dnn-seeds", type=positive_int, default=None, help="network training seeds to average")
+    with StudyRun(parser, argv, configure) as study:
+        config = study.config
+        say(f"{config.repeats} sessions x sparsities {[combination_label((s,)) for s in config.sparsities]}")
+        results = run(config, **study.parallel)
+        return study.conclude(results, title="Sparsity and calibration time (Fig. 5)", finding=finding,
+                              tables=tables, figures=figures,
+                              extra={"improvement_longest_over_shortest_percent": improvement(results)})
 
 
 if __name__ == "__main__":

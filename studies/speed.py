@@ -18,20 +18,17 @@ import timeit
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a script: make the project's packages importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
+from tqdm.auto import tqdm
 
-import numpy as np  # noqa: E402
-from tqdm.auto import tqdm  # noqa: E402
-
-from simulation import powered_on, record_calibration  # noqa: E402
-from simulation.trajectories import PAPER_SPARSITIES  # noqa: E402
-from studies.common import paper_numbers as paper  # noqa: E402
-from studies.common import plots, reporting  # noqa: E402
-from studies.common.cli import say, study_parser  # noqa: E402
-from studies.common.methods import MethodSettings, method_catalogue  # noqa: E402
-from studies.common.samples import Samples  # noqa: E402
-from studies.common.sessions import samples_of  # noqa: E402
+from simulation import powered_on, record_calibration
+from simulation.trajectories import PAPER_SPARSITIES
+from studies.common import paper_numbers as paper
+from studies.common import plots, reporting
+from studies.common.methods import MethodSettings, method_catalogue
+from studies.common.runner import StudyRun, names, say, study_parser
+from studies.common.samples import Samples
+from studies.common.sessions import samples_of
 
 STUDY = "speed"
 SERVO_PERIOD_US = 1000.0
@@ -161,25 +158,23 @@ def figures(results: dict, out: Path) -> list[Path]:
                             out / "speed.png", "Training and inference time", quantity="time")]
 
 
-def main(argv: list[str] | None = None) -> dict:
-    parser = study_parser(STUDY, __doc__.splitlines()[0])
-    parser.add_argument("--methods", default=None, help=f"comma-separated, among {', '.join(TIMED_METHODS)}")
-    args = parser.parse_args(argv)
+def configure(args) -> SpeedConfig:
     config = (SpeedConfig.quick if args.quick else SpeedConfig)(seed=args.seed)
     if args.methods:
-        config = replace(config, methods=tuple(m.strip() for m in args.methods.split(",") if m.strip()))
-    started, clock = reporting.now_iso(), time.perf_counter()
-    say(f"timing {', '.join(config.methods)} on {config.n_train} samples (one process, one thread)")
-    results = run(config, progress=not args.no_progress)
-    document = reporting.study_document(STUDY, config, started, time.perf_counter() - clock, **results)
-    document["finding"] = finding(results)
-    document["published"] = {"table_v": paper.TABLE_V}
-    paths = reporting.write_study(args.out, document, "Inference and training speed (Table V)", tables(results),
-                                  figures(results, args.out))
-    print("\n".join(tables(results)))
-    print(document["finding"])
-    say(f"wrote {args.out} ({len(paths)} files) in {time.perf_counter() - clock:.0f} s")
-    return document
+        config = replace(config, methods=args.methods)
+    return config
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = study_parser(STUDY, __doc__)
+    parser.add_argument("--methods", type=names(TIMED_METHODS, "method"), default=None,
+                        help=f"comma-separated, among {', '.join(TIMED_METHODS)}")
+    with StudyRun(parser, argv, configure) as study:
+        config = study.config
+        say(f"timing {', '.join(config.methods)} on {config.n_train} samples (one process, one thread)")
+        results = run(config, progress=study.parallel["progress"])
+        return study.conclude(results, title="Inference and training speed (Table V)", finding=finding,
+                              tables=tables, figures=figures, extra={"published": {"table_v": paper.TABLE_V}})
 
 
 if __name__ == "__main__":

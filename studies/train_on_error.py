@@ -11,29 +11,31 @@ Run: ``python studies/train_on_error.py [--quick] [--hours H] [--out DIR] [--job
 
 from __future__ import annotations
 
-import sys
-import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a script: make the project's packages importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from studies.common import paper_numbers as paper  # noqa: E402
-from studies.common import plots, reporting  # noqa: E402
-from studies.common.cli import say, study_parser  # noqa: E402
-from studies.common.evaluation import JOINT_HEADERS  # noqa: E402
-from studies.long_operation import OperationSessionConfig, kind_seed, operation_session  # noqa: E402
-from studies.common.methods import Method, MethodSettings, dnn, regression  # noqa: E402
-from studies.common.sessions import all_combinations, training_sets  # noqa: E402
-from studies.common.sweeps import run_tasks  # noqa: E402
-from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse  # noqa: E402
+from studies.common import paper_numbers as paper
+from studies.common import plots, reporting
+from studies.common.evaluation import JOINT_HEADERS
+from studies.common.methods import MODEL_LABELS as PAPER_MODEL_LABELS
+from studies.common.methods import Method, MethodSettings, dnn, regression
+from studies.common.runner import StudyRun, positive_float, positive_int, say, study_parser
+from studies.common.sessions import (
+    OperationSessionConfig,
+    all_combinations,
+    kind_seed,
+    operation_session,
+    training_sets,
+)
+from studies.common.sweeps import run_tasks
+from studies.common.training import GridCell, failures, fit_grid, mean_joint_rmse
 
 STUDY = "train_on_error"
 MODELS = ("dnn", "linear", "polynomial")
-MODEL_LABELS = {"dnn": "DNN", "linear": "Lin Reg", "polynomial": "Poly Reg"}
+MODEL_LABELS = {**PAPER_MODEL_LABELS, "polynomial": "Poly Reg"}
+"""The paper's model names; its Table II calls the polynomial "Poly Reg"."""
 MODES = ("error", "end_to_end")
 
 
@@ -47,8 +49,7 @@ class TrainOnErrorConfig:
     @classmethod
     def quick(cls, seed: int = 0, **changes) -> "TrainOnErrorConfig":
         """Two sparsities, 18 minutes of operation in 6-minute blocks, one DNN seed."""
-        session = OperationSessionConfig(seed=seed, hours=0.3, sparsities=(1 / 2, 1 / 3), eval_stride=10,
-                                         block_hours=0.1)
+        session = OperationSessionConfig.quick(seed)
         return cls(**{"session": session, "settings": MethodSettings.quick(), **changes})
 
 
@@ -110,9 +111,7 @@ def tables(results: dict) -> list[str]:
                 reporting.markdown_table(headers, rows), "",
                 f"Each simulated entry is the RMSE averaged over {len(results['training_sets'])} training sets "
                 f"({', '.join(results['training_sets'])}) and {len(results['hours'])} blocks of unloaded operation."]
-    if results["failures"]:
-        sections += ["", "Failed training runs:", *[f"- {line}" for line in results["failures"]]]
-    return sections
+    return sections + reporting.failure_lines(results["failures"])
 
 
 def figures(results: dict, out: Path) -> list[Path]:
@@ -125,30 +124,27 @@ def figures(results: dict, out: Path) -> list[Path]:
                                "Trained on error vs end-to-end (Table II)")]
 
 
-def main(argv: list[str] | None = None) -> dict:
-    parser = study_parser(STUDY, __doc__.splitlines()[0])
-    parser.add_argument("--hours", type=float, default=None, help="hours of unloaded operation")
-    parser.add_argument("--dnn-seeds", type=int, default=None, help="network training seeds to average")
-    args = parser.parse_args(argv)
+def configure(args) -> TrainOnErrorConfig:
     config = TrainOnErrorConfig.quick(args.seed) if args.quick else \
         TrainOnErrorConfig(session=OperationSessionConfig(seed=args.seed))
     if args.hours is not None:
         config = replace(config, session=replace(config.session, hours=args.hours))
     if args.dnn_seeds is not None:
         config = replace(config, settings=config.settings.with_(dnn_seeds=args.dnn_seeds))
-    started, clock = reporting.now_iso(), time.perf_counter()
-    say(f"unloaded session: calibration then {config.session.hours:g} h; models trained on error and end-to-end")
-    results = run(config, n_jobs=args.jobs, backend=args.backend, scheduler=args.scheduler,
-                  progress=not args.no_progress)
-    document = reporting.study_document(STUDY, config, started, time.perf_counter() - clock, **results)
-    document["finding"] = finding(results)
-    document["published"] = {"table_ii": paper.TABLE_II}
-    paths = reporting.write_study(args.out, document, "Training on error vs end-to-end (Table II)",
-                                  tables(results), figures(results, args.out))
-    print("\n".join(tables(results)))
-    print(document["finding"])
-    say(f"wrote {args.out} ({len(paths)} files) in {time.perf_counter() - clock:.0f} s")
-    return document
+    return config
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = study_parser(STUDY, __doc__)
+    parser.add_argument("--hours", type=positive_float, default=None, help="hours of unloaded operation")
+    parser.add_argument("--dnn-seeds", type=positive_int, default=None, help="network training seeds to average")
+    with StudyRun(parser, argv, configure) as study:
+        config = study.config
+        say(f"unloaded session: calibration then {config.session.hours:g} h; "
+            "models trained on error and end-to-end")
+        results = run(config, **study.parallel)
+        return study.conclude(results, title="Training on error vs end-to-end (Table II)", finding=finding,
+                              tables=tables, figures=figures, extra={"published": {"table_ii": paper.TABLE_II}})
 
 
 if __name__ == "__main__":

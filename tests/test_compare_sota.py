@@ -14,7 +14,6 @@ from simulation.recordings.dvrk import locate_dvrk_data
 from studies import compare_sota
 from studies.common.data_sources import recorded_comparison, simulated_comparison
 from studies.common.methods import BASE_METHODS, MethodSettings
-from studies.common.ukf_adapter import ukf_unavailable_reason
 
 REDUCED = MethodSettings(dnn_seeds=1, dnn_epochs=60, lstm_epochs=2, forest_trees=5, two_phase_max_samples=800,
                          gpr_subset=300, gpr_hyper_subset=100, lstm_max_samples=800, ukf_tuning="none")
@@ -52,9 +51,6 @@ def test_results_have_the_documented_layout(document):
             assert all(np.isfinite(joint[key])) and all(v > 0 for v in cartesian[key])
     assert document["seeds"]["study"] == 4 and len(document["seeds"]["methods"]["dnn"]) == 1
     assert document["configuration"]["sparsities"] == [1 / 3]
-    if ukf_unavailable_reason() is not None:
-        assert document["methods"]["ukf"]["status"] == "not available"
-        assert document["methods"]["ukf"]["note"].startswith("not available")
 
 
 def test_ordering_found_by_the_paper(document):
@@ -147,7 +143,7 @@ def test_dvrk_data_run_in_joint_space_only():
     assert data.train.tool_joints is None and not data.train.has_motor_torques
     config = compare_sota.CompareConfig(methods=("raw", "fixed_offset", "linear", "ukf"), settings=REDUCED)
     result = compare_sota.compare(data, config, n_jobs=1, backend="sequential", progress=False)
-    assert result.runs["ukf"].status in ("not available", "skipped")
+    assert result.runs["ukf"].status == "skipped"
     assert result.runs["linear"].mean("random").cartesian is None
     # Hwang et al.'s finding on joints 1-3: after a fixed offset they are within ~0.1 deg / 0.4 mm
     fixed = result.runs["fixed_offset"].mean("random").joint

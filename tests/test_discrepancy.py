@@ -19,11 +19,10 @@ from simulation.discrepancy import (
     NominalModel,
     Split,
     localize,
-    run_hidden_effect,
-    run_on_generic,
     strongest_dependence,
 )
 from simulation.discrepancy.signals import pooled_rmse
+from studies.common.discrepancy_runs import run_hidden_effect, run_on_generic
 
 DURATION = 120.0
 
@@ -176,5 +175,6 @@ def test_the_command_line_refuses_an_unknown_effect_and_a_missing_path(tmp_path,
     with pytest.raises(SystemExit):
         main(["--hidden-effect", "cable_wobble", "--out", str(tmp_path)])
     assert "unknown hidden effect 'cable_wobble'" in capsys.readouterr().err
-    with pytest.raises(FileNotFoundError, match="no file or folder"):
+    with pytest.raises(SystemExit) as exit_info:
         main(["--measured", str(tmp_path / "absent"), "--out", str(tmp_path)])
+    assert exit_info.value.code == 2 and "no file or folder" in capsys.readouterr().err

@@ -19,12 +19,21 @@ from studies.common.evaluation import (
     score,
     to_report_units,
 )
-from studies.common.methods import CalibratorOnSamples, Method, MethodSettings, dnn, method_catalogue, raw, regression, seeds_for
+from studies.common.methods import (
+    CalibratorOnSamples,
+    Method,
+    MethodSettings,
+    UKFOnSamples,
+    dnn,
+    method_catalogue,
+    raw,
+    regression,
+    seeds_for,
+)
 from studies.common.reporting import agreement_line, format_value, markdown_table, to_jsonable, write_json
 from studies.common.samples import Samples
 from studies.common.sweeps import run_tasks
 from studies.common.training import fit_and_score, run_methods
-from studies.common.ukf_adapter import UKFOnSamples, ukf_unavailable_reason
 from estimators import LinearCalibrator, WindowLinearCalibrator
 
 
@@ -168,8 +177,8 @@ def test_a_failing_method_is_reported_not_raised_and_unrunnable_ones_say_why():
     runs = run_methods([method, method_catalogue(MethodSettings.quick())["ukf"]], samples, {"test": samples},
                        n_jobs=1, backend="sequential", progress=False)
     assert runs["boom"].status == "failed" and "boom" in runs["boom"].note
-    # the UKF is either not installed, or cannot run on samples without the robot state
-    assert runs["ukf"].status in ("not available", "skipped") and runs["ukf"].note
+    # the UKF cannot run on samples without the robot state
+    assert runs["ukf"].status == "skipped" and "robot state" in runs["ukf"].note
 
 
 class _Noisy:
@@ -197,11 +206,8 @@ def test_warnings_of_a_method_are_collected_once_each():
 
 def test_ukf_needs_the_full_robot_state():
     samples = synthetic_samples(50)
-    if ukf_unavailable_reason() is None:
-        with pytest.raises(ValueError, match="robot state"):
-            UKFOnSamples().fit(samples)
-    else:
-        assert ukf_unavailable_reason().startswith("not available")
+    with pytest.raises(ValueError, match="robot state"):
+        UKFOnSamples().fit(samples)
 
 
 def test_network_seeds_are_independent_but_reproducible():

@@ -7,7 +7,7 @@ import pytest
 
 from studies import input_features, train_on_error
 from studies.common import paper_numbers as paper
-from studies.long_operation import OperationSessionConfig
+from studies.common.sessions import OperationSessionConfig
 from studies.common.methods import MethodSettings
 
 TINY = MethodSettings(dnn_seeds=1, dnn_epochs=15)

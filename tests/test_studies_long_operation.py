@@ -7,15 +7,15 @@ import pytest
 
 from studies import long_operation as lo
 from studies.common.methods import MethodSettings
-from studies.common.sessions import by_hour
+from studies.common.sessions import KINDS, OperationSessionConfig, by_hour, operation_session
 
 TINY = MethodSettings(dnn_seeds=1, dnn_epochs=20)
-SESSION = lo.OperationSessionConfig(seed=4, hours=0.1, sparsities=(1 / 2,), block_hours=0.05, eval_stride=10)
+SESSION = OperationSessionConfig(seed=4, hours=0.1, sparsities=(1 / 2,), block_hours=0.05, eval_stride=10)
 
 
 @pytest.fixture(scope="module")
 def loaded_session():
-    return lo.operation_session("loaded", 11, SESSION)
+    return operation_session("loaded", 11, SESSION)
 
 
 def test_loaded_session_hangs_the_payload_for_calibration_and_operation(loaded_session):
@@ -64,9 +64,9 @@ def test_idle_and_unloaded_results_per_hour(results):
 
 def test_finding_needs_idle_below_unloaded_below_loaded():
     def fake(rel):
-        return {"hours": {k: ["hour 0", "hour 5"] for k in lo.KINDS},
+        return {"hours": {k: ["hour 0", "hour 5"] for k in KINDS},
                 "rmse_3_longest": {k: {m: {"hour 0": [1.0, 1.0, 1.0], "hour 5": [1 + rel[k]] * 3}
-                                       for m in ("dnn", "linear")} for k in lo.KINDS}}
+                                       for m in ("dnn", "linear")} for k in KINDS}}
     assert "AGREES" in lo.finding(fake({"idle": 0.0, "unloaded": 0.2, "loaded": 0.5}))
     assert "DOES NOT AGREE" in lo.finding(fake({"idle": 0.3, "unloaded": 0.2, "loaded": 0.5}))
     assert lo.relative_decay(fake({"idle": 0.0, "unloaded": 0.2, "loaded": 0.5}), "dnn")["loaded"] == \
@@ -75,8 +75,8 @@ def test_finding_needs_idle_below_unloaded_below_loaded():
 
 def test_session_config_rejects_nonsense():
     with pytest.raises(ValueError, match="hours"):
-        lo.OperationSessionConfig(hours=0.0)
+        OperationSessionConfig(hours=0.0)
     with pytest.raises(ValueError, match="eval_stride"):
-        lo.OperationSessionConfig(eval_stride=0)
+        OperationSessionConfig(eval_stride=0)
     with pytest.raises(ValueError, match="kinds"):
         lo.LongOperationConfig(kinds=("sleeping",))

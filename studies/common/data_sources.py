@@ -84,8 +84,11 @@ def simulated_comparison(seed: int = 0, direction: str = "J2-J3", sparsities=PAP
 # Recorded data
 
 
-def _is_dvrk_folder(path: Path) -> bool:
-    return (path / "q_des.npy").is_file() or any((path / split / "q_des.npy").is_file() for split in DVRK_SPLITS)
+def is_dvrk_folder(path: Path) -> bool:
+    """Does ``path`` hold the dVRK recordings of Hwang et al. (one split, or the root of several)?"""
+    path = Path(path)
+    return path.is_dir() and ((path / "q_des.npy").is_file()
+                              or any((path / split / "q_des.npy").is_file() for split in DVRK_SPLITS))
 
 
 def _dvrk_samples(folder: Path, split: str, recording: int = 0) -> Samples:
@@ -105,8 +108,11 @@ def _split_in_time(samples: Samples, test_fraction: float) -> tuple[Samples, Sam
     return samples.select(np.arange(cut)), samples.select(np.arange(cut, len(samples)))
 
 
-def read_recorded(path: str | Path, arm: str = "left") -> tuple[Samples, str]:
-    """Samples of recorded RAVEN-II data (bag folder, bag, dataset file) and a description.
+def recorded_datasets(path: str | Path, arm: str = "left") -> tuple[list[CalibrationDataset], str]:
+    """The recorded RAVEN-II datasets at ``path`` (one per bag or dataset file) and a description.
+
+    ``path`` is a folder of ROS bags or of ``.parquet`` dataset files, a single bag, or a dataset
+    file (``.parquet``, or its ``.csv``).
 
     Raises
     ------
@@ -121,32 +127,36 @@ def read_recorded(path: str | Path, arm: str = "left") -> tuple[Samples, str]:
         parquets = sorted(path.glob("*.parquet"))
         if bags:
             logs = read_bag_folder(path, arm)
-            datasets = [synchronize(state, truth, arm) for _, state, truth in logs]
-            parts = [Samples.from_dataset(d, recording=k) for k, d in enumerate(datasets)]
-            return Samples.concat(parts), f"{len(bags)} ROS bags in {path}"
+            return [synchronize(state, truth, arm) for _, state, truth in logs], f"{len(bags)} ROS bags in {path}"
         if parquets:
-            parts = [Samples.from_dataset(CalibrationDataset.read_parquet(p), recording=k)
-                     for k, p in enumerate(parquets)]
-            return Samples.concat(parts), f"{len(parquets)} dataset files in {path}"
+            return [CalibrationDataset.read_parquet(p) for p in parquets], f"{len(parquets)} dataset files in {path}"
         raise FileNotFoundError(f"{path} holds no .bag or .parquet file and is not a dVRK data folder")
     if not path.exists():
         raise FileNotFoundError(f"no file or folder {path}")
     suffix = path.suffix.lower()
     if suffix == ".parquet":
-        return Samples.from_dataset(CalibrationDataset.read_parquet(path)), f"dataset file {path}"
+        return [CalibrationDataset.read_parquet(path)], f"dataset file {path}"
     if suffix == ".csv":
-        return Samples.from_dataset(CalibrationDataset(pd.read_csv(path), arm)), f"dataset file {path}"
+        return [CalibrationDataset(pd.read_csv(path), arm)], f"dataset file {path}"
     if suffix == ".bag":
         state, truth = read_bag(path, arm)
-        return Samples.from_dataset(synchronize(state, truth, arm)), f"ROS bag {path}"
+        return [synchronize(state, truth, arm)], f"ROS bag {path}"
     raise ValueError(f"{path}: unknown data file type {suffix!r} (expected .bag, .parquet or .csv, or a folder)")
+
+
+def read_recorded(path: str | Path, arm: str = "left") -> tuple[Samples, str]:
+    """Samples of recorded RAVEN-II data (see :func:`recorded_datasets`), one recording id per file."""
+    datasets, description = recorded_datasets(path, arm)
+    if not Path(path).is_dir():
+        return Samples.from_dataset(datasets[0]), description
+    return Samples.concat([Samples.from_dataset(d, recording=k) for k, d in enumerate(datasets)]), description
 
 
 def recorded_comparison(path: str | Path, *, test_path: str | Path | None = None, arm: str = "left",
                         test_fraction: float = DEFAULT_TEST_FRACTION) -> ComparisonData:
     """Training and test samples from recorded data (see the module docstring for the formats)."""
     path = Path(path)
-    if path.is_dir() and _is_dvrk_folder(path):
+    if is_dvrk_folder(path):
         return _dvrk_comparison(path, test_fraction)
     train, description = read_recorded(path, arm)
     notes = []

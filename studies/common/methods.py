@@ -3,8 +3,9 @@
 Every method answers ``fit(samples)`` then ``predict(samples)`` with joints 1-3 (N, 3) in SI
 units. The learned calibrators of :mod:`estimators` are wrapped by :class:`CalibratorOnSamples`
 (train on the error by default, time-ordered prediction per recording for the temporal-window
-models); ``raw`` returns the motor-encoder joints; the UKF goes through
-:mod:`studies.common.ukf_adapter`. A :class:`Method` is picklable, so sweeps can ship it to workers.
+models); ``raw`` returns the motor-encoder joints; the UKF
+(:class:`estimators.UKFJointEstimator`) filters each recording of the samples' robot state
+(:class:`UKFOnSamples`). A :class:`Method` is picklable, so sweeps can ship it to workers.
 """
 
 from __future__ import annotations
@@ -28,7 +29,6 @@ from estimators import (
 )
 
 from studies.common.samples import Samples
-from studies.common.ukf_adapter import UKFOnSamples, ukf_unavailable_reason
 
 
 class SampleEstimator(Protocol):
@@ -107,6 +107,52 @@ class CalibratorOnSamples:
         out = np.empty((len(samples), 3))
         for rows in samples.recordings():
             out[rows] = self.model_.predict(samples.X[rows])
+        return out
+
+
+class UKFOnSamples:
+    """The UKF of Haghighipanah et al. (:class:`estimators.UKFJointEstimator`) on :class:`Samples`.
+
+    The filter reads the full robot state of consecutive log samples (``samples.dataset``): it
+    identifies its cable model on the training samples and filters each test recording from its
+    start. It is deterministic: it has no seed, and one run stands for all seeds.
+
+    Parameters
+    ----------
+    **options
+        Hyper-parameters of :class:`estimators.UKFJointEstimator` (e.g. ``tuning="none"``).
+    """
+
+    def __init__(self, **options) -> None:
+        self.options = options
+
+    @staticmethod
+    def _check(samples: Samples) -> None:
+        if samples.dataset is None:
+            raise ValueError("the UKF needs the full robot state (motor torques); these samples do not carry it")
+        if samples.stride != 1:
+            raise ValueError("the UKF filters consecutive log samples; these samples were thinned")
+
+    def fit(self, samples: Samples) -> "UKFOnSamples":
+        # imported here: the filter's model class loads the identification (casadi), which the
+        # learned calibrators do not need
+        from estimators import UKFJointEstimator
+
+        self._check(samples)
+        self.filter_ = UKFJointEstimator(**self.options).fit(samples.dataset)
+        return self
+
+    def predict(self, samples: Samples) -> np.ndarray:
+        """Filter each recording of the samples from its start; joints 1-3 (N, 3), SI."""
+        self._check(samples)
+        out = np.empty((len(samples), 3))
+        for rows in samples.recordings():
+            joints = np.asarray(self.filter_.predict(samples.dataset.select(rows)).joints, dtype=np.float64)
+            if joints.ndim != 2 or joints.shape[0] != rows.size or joints.shape[1] < 3:
+                raise ValueError(f"the UKF returned estimates of shape {joints.shape}; expected ({rows.size}, >=3)")
+            if not np.all(np.isfinite(joints[:, :3])):
+                raise ValueError("the UKF returned non-finite joint estimates")
+            out[rows] = joints[:, :3]
         return out
 
 
@@ -200,7 +246,6 @@ class Method:
     make : ``make(seed)`` returns a new unfitted :class:`SampleEstimator`.
     n_seeds : training seeds whose scores are averaged.
     needs_robot_state : needs the full robot state (motor torques) beyond the model inputs.
-    unavailable : None, or one line saying why the method cannot run here.
     cost : expected training time relative to the paper's DNN; sweeps start the costly runs first.
     """
 
@@ -211,8 +256,12 @@ class Method:
     make: Callable[[int], SampleEstimator]
     n_seeds: int = 1
     needs_robot_state: bool = False
-    unavailable: str | None = None
     cost: float = 0.05
+
+
+MODEL_LABELS = {"dnn": "DNN", "polynomial": "2nd Reg", "linear": "Lin Reg", "fixed_offset": "Fixed Offset",
+                "raw": "Raw"}
+"""The paper's names of its models (the "Model" column of its tables), by method key."""
 
 
 def _raw(seed: int) -> RawJoints:
@@ -232,7 +281,7 @@ def _ukf(tuning: str, seed: int) -> UKFOnSamples:
 
 def raw() -> Method:
     """No calibration: the motor-encoder joints."""
-    return Method("raw", "Raw (motor encoders)", "Raw", "no calibration", _raw)
+    return Method("raw", "Raw (motor encoders)", MODEL_LABELS["raw"], "no calibration", _raw)
 
 
 def dnn(settings: MethodSettings, *, large: bool = False, train_on_error: bool = True, key: str = "dnn",
@@ -240,20 +289,20 @@ def dnn(settings: MethodSettings, *, large: bool = False, train_on_error: bool =
     """The paper's DNN (2 x 100 sigmoid units; ``large``: 600-500-400 with regularization)."""
     network = (DNNCalibrator.large if large else DNNCalibrator)(
         max_epochs=settings.dnn_epochs, n_threads=settings.n_threads)
-    return Method(key, label, "DNN", "Peng et al. (the paper)",
+    return Method(key, label, MODEL_LABELS["dnn"], "Peng et al. (the paper)",
                   partial(_calibrator, network, seeded=True, train_on_error=train_on_error),
                   n_seeds=settings.dnn_seeds, cost=15.0 if large else 1.0)
 
 
 def regression(kind: str, *, train_on_error: bool = True, key: str | None = None, label: str | None = None) -> Method:
     """Fixed offset, linear or 2nd-order polynomial regression of the paper."""
-    calibrators = {"fixed_offset": (FixedOffsetCalibrator(), "Fixed offset", "Fixed Offset"),
-                   "linear": (LinearCalibrator(), "Linear regression", "Lin Reg"),
-                   "polynomial": (PolynomialCalibrator(degree=2), "2nd-order polynomial", "2nd Reg")}
+    calibrators = {"fixed_offset": (FixedOffsetCalibrator(), "Fixed offset"),
+                   "linear": (LinearCalibrator(), "Linear regression"),
+                   "polynomial": (PolynomialCalibrator(degree=2), "2nd-order polynomial")}
     if kind not in calibrators:
         raise ValueError(f"kind must be one of {sorted(calibrators)}, got {kind!r}")
-    calibrator, default_label, model = calibrators[kind]
-    return Method(key or kind, label or default_label, model, "Peng et al. (the paper)",
+    calibrator, default_label = calibrators[kind]
+    return Method(key or kind, label or default_label, MODEL_LABELS[kind], "Peng et al. (the paper)",
                   partial(_calibrator, calibrator, train_on_error=train_on_error),
                   cost=0.1 if kind == "polynomial" else 0.01)
 
@@ -280,7 +329,7 @@ def method_catalogue(settings: MethodSettings | None = None) -> dict[str, Method
         regression("polynomial"),
         dnn(s),
         Method("ukf", "UKF", "UKF", "Haghighipanah et al. (IROS 2015)", partial(_ukf, s.ukf_tuning),
-               needs_robot_state=True, unavailable=ukf_unavailable_reason(), cost=1.0),
+               needs_robot_state=True, cost=1.0),
         Method("gpr", "Gaussian process", "GPR", "Mahler et al. (CASE 2014)",
                partial(_calibrator, gpr, seeded=True), cost=0.3),
         Method("two_phase", "Two-phase DNN + forest", "DNN + RF", "Seita et al. (ICRA 2018)",

@@ -170,6 +170,11 @@ def write_study(out: Path, document: Mapping[str, Any], title: str, sections: Se
     return [json_path, report_path, *figures]
 
 
+def failure_lines(failures: Sequence[str]) -> list[str]:
+    """Report lines listing the failed training runs of a study (none when nothing failed)."""
+    return ["", "Failed training runs:", *[f"- {line}" for line in failures]] if failures else []
+
+
 def study_document(study: str, config: Any, started: str, runtime_s: float, **content: Any) -> dict[str, Any]:
     """The common part of every study's ``results.json``."""
     return {"study": study, "created": started, "runtime_s": round(runtime_s, 1),

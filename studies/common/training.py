@@ -86,7 +86,7 @@ class MethodRun:
     Attributes
     ----------
     method : the method.
-    status : ``"ok"``, ``"not available"``, ``"skipped"`` or ``"failed"``.
+    status : ``"ok"``, ``"skipped"`` or ``"failed"``.
     note : why it did not run (one line), else "".
     seeds : training seeds used.
     outcomes : one :class:`FitOutcome` per seed.
@@ -126,8 +126,6 @@ class MethodRun:
 
 def why_not_runnable(method: Method, train: Samples, tests: Mapping[str, Samples]) -> tuple[str, str] | None:
     """(status, note) when a method cannot run on these samples, else None."""
-    if method.unavailable:
-        return "not available", method.unavailable
     if method.needs_robot_state and (train.dataset is None or any(t.dataset is None for t in tests.values())):
         return "skipped", "skipped: the data hold no full robot state (motor torques) for this model-based method"
     return None

@@ -1,5 +1,6 @@
-"""Running the workflow end to end: on simulated data with a hidden effect, on recorded RAVEN-II
-data, and on generic data such as the dVRK recordings.
+"""Runs of the model-discrepancy workflow (:mod:`simulation.discrepancy`) end to end: on simulated
+data with a hidden effect, on recorded RAVEN-II data, and on generic data such as the dVRK
+recordings. ``studies/discrepancy.py`` is their command line.
 
 Step 0 starts from a model identified from the measured data itself
 (:func:`simulation.identification.identify` on the fit part), never from the parameters that
@@ -13,10 +14,16 @@ import numpy as np
 from simulation.model.effects import Backlash, CapstanRunout, Drift
 from simulation.model.parameters import RavenParameters
 
-from simulation.discrepancy.generic import NominalModel
-from simulation.discrepancy.replay import RavenModel
-from simulation.discrepancy.signals import MeasuredSignals
-from simulation.discrepancy.workflow import BaseIdentifier, DiscrepancyResult, Split, WorkflowSettings, run_workflow
+from simulation.discrepancy import (
+    BaseIdentifier,
+    DiscrepancyResult,
+    MeasuredSignals,
+    NominalModel,
+    RavenModel,
+    Split,
+    WorkflowSettings,
+    run_workflow,
+)
 
 NOMINAL_STRUCTURE = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction")
 """The starting model's structure: the cable model the identification fits (the UKF's model class)."""

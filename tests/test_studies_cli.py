@@ -1,0 +1,209 @@
+"""The study scripts' command line fails fast and cleanly: one line, status 2, nothing written.
+
+A user's mistake (an argument out of range, an unknown name, a path that is missing or of the wrong
+kind, an input file that cannot be read) must be reported in one line naming it, with exit status
+2 (argparse's convention), before any simulation or training starts, and must leave the output
+folder as it was. A run that succeeds replaces the previous results as a whole.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from studies.common import runner
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): (p.read_bytes() if p.is_file() else b"")
+            for p in sorted(folder.rglob("*"))}
+
+
+def _run_script(script: str, *arguments: str, cwd: Path) -> subprocess.CompletedProcess:
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+                   "PYTHONWARNINGS": "ignore"}
+    return subprocess.run([sys.executable, str(ROOT / "studies" / f"{script}.py"), *arguments], cwd=cwd,
+                          env=environment, capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture
+def workspace(tmp_path):
+    """A folder with an earlier result, a file, an empty folder and corrupt data files."""
+    (tmp_path / "previous").mkdir()
+    (tmp_path / "previous" / "results.json").write_text('{"old": true}\n')
+    (tmp_path / "a_file.txt").write_text("not a folder\n")
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "corrupt.parquet").write_bytes(b"PAR1 this is not a parquet file")
+    (tmp_path / "corrupt.bag").write_bytes(b"#ROSBAG V2.0\n\x00\x01 truncated")
+    return tmp_path
+
+
+# one mistake per script, run as the user runs it (a new process)
+SCRIPT_MISTAKES = [
+    ("compare_sota", ["--data", "{tmp}/empty"], "holds no .bag or .parquet"),
+    ("compare_sota", ["--data", "{tmp}/corrupt.parquet"], "corrupt.parquet"),
+    ("directions", ["--jobs", "0"], "--jobs"),
+    ("discrepancy", ["--sweep", "--seeds", "0"], "--seeds"),
+    ("discrepancy", ["--measured", "{tmp}/corrupt.bag"], "corrupt.bag"),
+    ("homing", ["--out", "{tmp}/a_file.txt"], "is a file"),
+    ("input_features", ["--hours", "-1"], "--hours"),
+    ("long_operation", ["--kinds", "idle,sleeping"], "sleeping"),
+    ("sparsity", ["--out", "{tmp}/a_file.txt/results"], "is not a folder"),
+    ("speed", ["--methods", "linear,magic"], "magic"),
+    ("train_on_error", ["--dnn-seeds", "0"], "--dnn-seeds"),
+]
+
+
+@pytest.mark.parametrize("script, arguments, named", SCRIPT_MISTAKES,
+                         ids=[f"{s}{' '.join(a).replace('{tmp}', '')}" for s, a, _ in SCRIPT_MISTAKES])
+def test_a_mistake_gets_one_line_and_status_2_and_nothing_is_written(workspace, script, arguments, named):
+    arguments = [a.replace("{tmp}", str(workspace)) for a in arguments]
+    if "--out" not in arguments:
+        arguments += ["--out", str(workspace / "previous")]
+    before = _tree(workspace)
+    result = _run_script(script, *arguments, cwd=workspace)
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == 2, result.stderr
+    assert len(lines) == 1 and lines[0].startswith(f"python studies/{script}.py: error: "), result.stderr
+    assert named in lines[0]
+    assert "Traceback" not in result.stderr and result.stdout == ""
+    assert _tree(workspace) == before
+
+
+# more mistakes, checked in this process (the parsing and checks are the same code)
+IN_PROCESS_MISTAKES = [
+    ("compare_sota", ["--seed", "-1"], "--seed"),
+    ("compare_sota", ["--data", "{tmp}/missing_folder"], "no file or folder"),
+    ("compare_sota", ["--methods", "raw,magic"], "unknown method 'magic'"),
+    ("compare_sota", ["--methods", ","], "no method given"),
+    ("compare_sota", ["--jobs", "-2"], "--jobs"),
+    ("compare_sota", ["--dnn-seeds", "zero"], "not an integer"),
+    ("compare_sota", ["--test-fraction", "1.5"], "--test-fraction"),
+    ("compare_sota", ["--test-data", "{tmp}/corrupt.parquet"], "--test-data needs --data"),
+    ("compare_sota", ["--data", "{tmp}/a_file.txt"], "unknown data file type"),
+    ("compare_sota", ["--backend", "cluster"], "--backend"),
+    ("homing", ["--scheduler", "tcp://localhost:8786"], "--scheduler needs --backend dask"),
+    ("discrepancy", ["--hidden-effect", "backlash", "--seed", "-3"], "--seed"),
+    ("discrepancy", ["--hidden-effect", "backlash", "--duration", "nan"], "--duration"),
+    ("discrepancy", ["--measured", "{tmp}/missing"], "no file or folder"),
+    ("discrepancy", ["--measured", "{tmp}/empty"], "holds no .bag or .parquet"),
+    ("discrepancy", ["--measured", "{tmp}/empty", "--joints", "0,7"], "--joints"),
+    ("directions", ["--directions", "J2-J3,J4"], "unknown direction 'J4'"),
+    ("sparsity", ["--repeats", "0"], "--repeats"),
+    ("input_features", ["--large-dnn-seeds", "-1"], "--large-dnn-seeds"),
+]
+
+
+@pytest.mark.parametrize("script, arguments, named", IN_PROCESS_MISTAKES,
+                         ids=[f"{s}{' '.join(a).replace('{tmp}', '')}" for s, a, _ in IN_PROCESS_MISTAKES])
+def test_more_mistakes_in_process(workspace, capsys, script, arguments, named):
+    main = importlib.import_module(f"studies.{script}").main
+    arguments = [a.replace("{tmp}", str(workspace)) for a in arguments] + ["--out", str(workspace / "previous")]
+    before = _tree(workspace)
+    with pytest.raises(SystemExit) as exit_info:
+        main(arguments)
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert exit_info.value.code == 2
+    assert len(lines) == 1 and named in lines[0], lines
+    assert _tree(workspace) == before
+
+
+@pytest.mark.skipif(importlib.util.find_spec("ray") is not None, reason="Ray is installed here")
+def test_a_cluster_backend_that_is_not_installed_is_named(workspace, capsys):
+    from studies import sparsity
+
+    with pytest.raises(SystemExit) as exit_info:
+        sparsity.main(["--backend", "ray", "--out", str(workspace / "previous")])
+    assert exit_info.value.code == 2 and "pip install" in capsys.readouterr().err
+
+
+def _parser() -> runner.StudyParser:
+    parser = runner.script_parser("example", "An example study.")
+    parser.add_argument("--out", type=Path)
+    return parser
+
+
+def test_a_failed_run_leaves_the_previous_results_whole(workspace, capsys):
+    out = workspace / "previous"
+    before = _tree(workspace)
+    with pytest.raises(SystemExit) as exit_info:
+        with runner.StudyRun(_parser(), ["--out", str(out)]) as study:
+            (study.folder / "results.json").write_text('{"new": true}\n')
+            raise runner.UsageError("the input file is corrupt")
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err.strip() == "python studies/example.py: error: the input file is corrupt"
+    assert _tree(workspace) == before
+    with pytest.raises(RuntimeError, match="a bug"):
+        with runner.StudyRun(_parser(), ["--out", str(out)]) as study:
+            (study.folder / "results.json").write_text('{"new": true}\n')
+            raise RuntimeError("a bug")
+    assert _tree(workspace) == before
+
+
+def test_a_successful_run_replaces_the_previous_results_as_a_whole(workspace):
+    out = workspace / "previous"
+    (out / "figure_of_an_older_run.png").write_bytes(b"old")
+    with runner.StudyRun(_parser(), ["--out", str(out)]) as study:
+        (study.folder / "results.json").write_text('{"new": true}\n')
+        assert not (out / "results.json").read_text().startswith('{"new"')
+    assert sorted(p.name for p in out.iterdir()) == ["results.json"]
+    assert json.loads((out / "results.json").read_text()) == {"new": True}
+    assert sorted(p.name for p in workspace.iterdir()) == ["a_file.txt", "corrupt.bag", "corrupt.parquet",
+                                                            "empty", "previous"]
+
+
+def test_a_folder_holding_other_things_keeps_them(workspace):
+    out = workspace / "empty"
+    (out / "notes.txt").write_text("mine\n")
+    with runner.StudyRun(_parser(), ["--out", str(out / "deeper" / "run")]) as study:
+        (study.folder / "report.md").write_text("# new\n")
+    assert (out / "deeper" / "run" / "report.md").read_text() == "# new\n"
+    with runner.StudyRun(_parser(), ["--out", str(out)]) as study:
+        (study.folder / "report.md").write_text("# new\n")
+    assert sorted(p.name for p in out.iterdir()) == ["deeper", "notes.txt", "report.md"]
+
+
+def test_folders_created_for_a_failed_run_are_removed(workspace):
+    out = workspace / "new" / "deeper" / "run"
+    with pytest.raises(SystemExit):
+        with runner.StudyRun(_parser(), ["--out", str(out)]):
+            raise runner.UsageError("nothing to read")
+    assert not (workspace / "new").exists()
+
+
+def test_the_run_time_is_measured_once(workspace, capsys):
+    with runner.StudyRun(_parser(), ["--out", str(workspace / "timed")]) as study:
+        (study.folder / "report.md").write_text("# report\n")
+        first = study.stop_clock()
+    assert study.stop_clock() == first
+    study.done()
+    assert capsys.readouterr().err.strip().endswith(f"run time {first:.0f} s")
+
+
+@pytest.mark.parametrize("parse, text, message", [
+    (runner.non_negative_int, "-1", ">= 0"),
+    (runner.positive_int, "0", ">= 1"),
+    (runner.jobs_count, "0", "-1 for all cores"),
+    (runner.positive_float, "inf", "finite"),
+    (runner.open_fraction, "0", "between 0 and 1"),
+])
+def test_argument_types_name_the_mistake(parse, text, message):
+    import argparse
+
+    with pytest.raises(argparse.ArgumentTypeError, match=message):
+        parse(text)
+
+
+def test_argument_types_accept_good_values():
+    assert runner.jobs_count("-1") == -1 and runner.jobs_count("2") == 2
+    assert runner.non_negative_int("0") == 0 and runner.open_fraction("0.3") == 0.3
+    assert runner.names(("a", "b", "c"), "letter")(" c, a,c ") == ("c", "a")
