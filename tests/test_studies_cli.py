@@ -91,7 +91,7 @@ IN_PROCESS_MISTAKES = [
     ("compare_sota", ["--test-data", "{tmp}/corrupt.parquet"], "--test-data needs --data"),
     ("compare_sota", ["--data", "{tmp}/a_file.txt"], "unknown data file type"),
     ("compare_sota", ["--backend", "cluster"], "--backend"),
-    ("homing", ["--scheduler", "tcp://localhost:8786"], "--scheduler needs --backend dask"),
+    ("homing", ["--scheduler", "tcp://localhost:8786"], "--scheduler needs --backend dask or --backend ray"),
     ("discrepancy", ["--hidden-effect", "backlash", "--seed", "-3"], "--seed"),
     ("discrepancy", ["--hidden-effect", "backlash", "--duration", "nan"], "--duration"),
     ("discrepancy", ["--measured", "{tmp}/missing"], "no file or folder"),

@@ -96,7 +96,7 @@ def study_parser(name: str, description: str) -> StudyParser:
     parser.add_argument("--jobs", type=jobs_count, default=-1, help="parallel workers (>= 1; -1: all cores)")
     parser.add_argument("--backend", choices=BACKENDS, default="loky",
                         help="joblib backend: loky (this machine), ray or dask (a cluster)")
-    parser.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
+    parser.add_argument("--scheduler", default=None, help="address of an existing cluster: a Dask scheduler (tcp://host:8786) or Ray (ray://host:10001)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     return parser
 
@@ -239,9 +239,9 @@ class StudyRun:
 
     def _check_backend(self) -> None:
         backend, scheduler = getattr(self.args, "backend", None), getattr(self.args, "scheduler", None)
-        if scheduler is not None and backend != "dask":
-            fail(self.prog, "--scheduler needs --backend dask")
-        needs = {"ray": ("ray", "pip install 'ray[default]'"), "dask": ("distributed", "pip install dask distributed")}
+        if scheduler is not None and backend not in ("dask", "ray"):
+            fail(self.prog, "--scheduler needs --backend dask or --backend ray")
+        needs = {"ray": ("ray", "pip install -e '.[ray]'"), "dask": ("distributed", "pip install -e '.[cluster]'")}
         if backend in needs and importlib.util.find_spec(needs[backend][0]) is None:
             module, command = needs[backend]
             fail(self.prog, f"--backend {backend} needs {module}, which is not installed: {command}")
