@@ -20,7 +20,16 @@ import numpy as np
 
 from simulation.identification.samples import arm_model
 from simulation.model.laws import cable_stretch_curve, coupling_matrix
-from simulation.model.layout import HARDENING, LOAD_SCALE, MOTOR_INERTIA, N_ROWS, OFFSET, STIFFNESS, VELOCITY_SCALE, joint_table
+from simulation.model.layout import (
+    HARDENING,
+    LOAD_SCALE,
+    MOTOR_INERTIA,
+    N_ROWS,
+    OFFSET,
+    STIFFNESS,
+    VELOCITY_SCALE,
+    joint_table,
+)
 from simulation.model.parameters import RavenParameters
 
 N_STATE = 12

@@ -96,7 +96,8 @@ def _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, s
         else:
             lower = x
         sign = 1.0 if x >= previous else -1.0
-        slope = cable_stiffness(x, stiffness, hardening) / softening + k_h * max(bouc_wen_slope(z_x, sign, beta, gamma), 0.0)
+        slope = (cable_stiffness(x, stiffness, hardening) / softening
+                 + k_h * max(bouc_wen_slope(z_x, sign, beta, gamma), 0.0))
         step = x - value / slope
         if not (lower < step < upper):
             step = 0.5 * (lower + upper)
