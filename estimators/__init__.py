@@ -4,6 +4,11 @@ The calibrators map one row of robot state X to corrected joint positions y and 
 robot's (X, y) arrays. They follow scikit-learn's estimator contract, save to a pickle-free
 format (`save_calibrator` / `load_calibrator`) and export to numpy-only single-sample
 predictors for a servo loop (`to_realtime`).
+
+The model-based baseline `UKFJointEstimator` (with `ProcessNoise` and `JointEstimates`) lives in
+the sub-package `estimators.ukf` and needs the simulator's model layer and identification (numba,
+casadi); it is loaded on first access of one of its names (a module ``__getattr__``, PEP 562), so
+``import estimators`` alone loads neither the simulator nor casadi.
 """
 
 from estimators.dnn import LARGE_HIDDEN_LAYER_SIZES, LARGE_REGULARIZATION, DNNCalibrator
@@ -43,7 +48,7 @@ _UKF_NAMES = {"UKFJointEstimator": "estimators.ukf.estimator", "ProcessNoise": "
 
 
 def __getattr__(name):
-    # The UKF needs the simulator's model layer (numba, casadi): imported on first use only.
+    """Import the UKF's module on first access of one of its names (see the module docstring)."""
     if name in _UKF_NAMES:
         import importlib
 

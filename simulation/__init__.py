@@ -7,29 +7,27 @@ Quick start::
     runs.calibration.channel("jpos")       # what the robot reports (30 Hz)
     runs.calibration.truth                 # what the external joint encoders measure (100 Hz)
 
-Layers: :mod:`~simulation.model.constants` (controller facts), :mod:`~simulation.model.effects` (named
-physics), :mod:`~simulation.model.parameters` (an immutable parameter set), :mod:`~simulation.model.laws`
-(pure model functions shared with the estimators), :mod:`~simulation.engine.loop` (the compiled loop),
-:mod:`~simulation.engine.robot` (one arm), :mod:`~simulation.engine.scenarios` (the paper's experiments),
-:mod:`~simulation.recordings.recording`, :mod:`~simulation.recordings.ravenstate`, :mod:`~simulation.recordings.dataset` and
-:mod:`~simulation.recordings` (what is recorded and how it is stored).
+Layers, imported one way (each uses only those above it):
+
+* :mod:`simulation.model`: the motor-cable-link model: joint names, constants, named effects, an
+  immutable parameter set, the laws (numba and casadi forms) and the one parameter table layout;
+* :mod:`simulation.recordings`: what a robot records and how it is stored (ravenstate, datasets,
+  bags, tables, dVRK);
+* :mod:`simulation.identification`: casadi fits of the model to logs;
+* :mod:`simulation.trajectories` and :mod:`simulation.engine`: desired motions, and the compiled
+  servo loop, one arm and the paper's experiments;
+* :mod:`simulation.discrepancy`: the model-discrepancy workflow.
+
+The names below are loaded on first use (a module ``__getattr__``, PEP 562): importing a light
+part such as :mod:`simulation.model` does not load the engine, the trajectories or the bag readers.
 """
 
-from simulation.model.effects import EFFECT_NAMES, Effect, effect_type
-from simulation.model.parameters import RavenParameters
-from simulation.recordings.recording import Recording, recording_to_dataset
-from simulation.engine.robot import Motion, VirtualRaven
-from simulation.engine.scenarios import (
-    ProtocolRecordings,
-    long_operation,
-    paper_protocol,
-    powered_on,
-    record_calibration,
-    record_random_test,
-    rehome,
-)
+from __future__ import annotations
+
+import importlib
 
 __all__ = [
+    "CalibrationDataset",
     "EFFECT_NAMES",
     "Effect",
     "Motion",
@@ -46,3 +44,37 @@ __all__ = [
     "recording_to_dataset",
     "rehome",
 ]
+
+_HOMES = {
+    "CalibrationDataset": "simulation.recordings.dataset",
+    "EFFECT_NAMES": "simulation.model.effects",
+    "Effect": "simulation.model.effects",
+    "effect_type": "simulation.model.effects",
+    "RavenParameters": "simulation.model.parameters",
+    "Recording": "simulation.recordings.recording",
+    "recording_to_dataset": "simulation.recordings.recording",
+    "Motion": "simulation.engine.robot",
+    "VirtualRaven": "simulation.engine.robot",
+    "ProtocolRecordings": "simulation.engine.scenarios",
+    "long_operation": "simulation.engine.scenarios",
+    "paper_protocol": "simulation.engine.scenarios",
+    "powered_on": "simulation.engine.scenarios",
+    "record_calibration": "simulation.engine.scenarios",
+    "record_random_test": "simulation.engine.scenarios",
+    "rehome": "simulation.engine.scenarios",
+}
+"""Module that defines each exported name."""
+
+
+def __getattr__(name: str):
+    """Import the module that defines ``name`` on first access (PEP 562) and return the name."""
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module 'simulation' has no attribute {name!r}")
+    value = getattr(importlib.import_module(home), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -20,7 +20,9 @@ from simulation.engine.scenarios import powered_on, record_random_test
 
 from estimators import UKFJointEstimator
 from estimators.ukf._filter import BatchUnscentedKalmanFilter, sigma_points
-from estimators.ukf.model import P_HARDENING, P_LOAD, P_STIFFNESS, CableModel
+from simulation.model.layout import HARDENING, LOAD_SCALE, STIFFNESS
+
+from estimators.ukf.model import CableModel
 from estimators.ukf.noise import ProcessNoise, encoder_noise
 from estimators.ukf.process import ProcessModel
 from estimators.ukf.run import initial_state, motor_readings
@@ -132,9 +134,9 @@ def test_process_model_holds_a_resting_arm_whose_motors_carry_its_weight():
     model = CableModel.from_parameters(params, np.array([0.01, -0.02, 0.003]))
     motor = np.linalg.solve(model.coupling, np.array([0.6, 1.4, 0.38]))
     state, _ = initial_state(model, motor)
-    weight = model.table[P_LOAD] * gravity_torques_fast(state[6:9].copy(), model.gravity_coefficients)
+    weight = model.table[LOAD_SCALE] * gravity_torques_fast(state[6:9].copy(), model.gravity_coefficients)
     stretch = model.cable_ends(state[:3]) - state[6:9]
-    tension = np.array([stiffness_tension(stretch[i], model.table[P_STIFFNESS, i], model.table[P_HARDENING, i])
+    tension = np.array([stiffness_tension(stretch[i], model.table[STIFFNESS, i], model.table[HARDENING, i])
                         for i in range(3)])
     np.testing.assert_allclose(tension, weight, rtol=1e-6)   # the resting cables carry the links
     holding = model.coupling.T @ tension      # and the motors feel A^T T

@@ -18,14 +18,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simulation.model.laws import cable_stretch_curve
-from simulation.model.constants import coupling_matrix
 from simulation.identification.samples import arm_model
+from simulation.model.laws import cable_stretch_curve, coupling_matrix
+from simulation.model.layout import (
+    HARDENING,
+    LOAD_SCALE,
+    MOTOR_INERTIA,
+    N_ROWS,
+    OFFSET,
+    STIFFNESS,
+    VELOCITY_SCALE,
+    joint_table,
+)
 from simulation.model.parameters import RavenParameters
 
-# Rows of the packed per-joint table (3 columns).
-P_STIFFNESS, P_HARDENING, P_DAMPING, P_COULOMB, P_VSCALE, P_VISCOUS, P_LOAD, P_OFFSET, P_JM, P_BM = range(10)
-N_TABLE_ROWS = 10
 N_STATE = 12
 U, UD, Q, QD = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 
@@ -42,10 +48,12 @@ class CableModel:
 
     Attributes
     ----------
-    table : (N_TABLE_ROWS, 3) per-joint parameters (rows ``P_*``): cable stiffness at zero tension,
-        hardening stretch, damping; Coulomb force, its ``tanh`` velocity scale, viscous coefficient
-        (zero for effects that are off); gravity load scale; session offset; motor inertia and
-        damping on the motor coordinates (``J ratio^2``, ``b ratio^2``).
+    table : (N_ROWS, 3) per-joint parameters in the model's one layout
+        (:mod:`simulation.model.layout`): cable stiffness at zero tension, hardening stretch,
+        damping; gravity load scale; Coulomb force, its ``tanh`` velocity scale, viscous
+        coefficient (zero for effects that are off); session offset; motor inertia and damping on
+        the motor coordinates (``J ratio^2``, ``b ratio^2``); the rows of effects the UKF does not
+        model are not read.
     coupling : (3, 3) true cable coupling ``A`` (cable ends at ``A u + offset``).
     gravity_coefficients : coefficients of :func:`kinematics.gravity_torques_fast` with the payload.
     torque_scale : (3,) ``ratio / gearbox``: gearbox-output torque to motor-coordinate torque.
@@ -69,11 +77,11 @@ class CableModel:
             if not np.all(np.isfinite(value)):
                 raise ValueError(f"CableModel.{name} must be finite")
             object.__setattr__(self, name, value)
-        if self.table.shape != (N_TABLE_ROWS, 3):
-            raise ValueError(f"table must have shape ({N_TABLE_ROWS}, 3), got {self.table.shape}")
-        if np.any(self.table[P_STIFFNESS] <= 0) or np.any(self.table[P_HARDENING] <= 0):
+        if self.table.shape != (N_ROWS, 3):
+            raise ValueError(f"table must have shape ({N_ROWS}, 3), got {self.table.shape}")
+        if np.any(self.table[STIFFNESS] <= 0) or np.any(self.table[HARDENING] <= 0):
             raise ValueError("the UKF needs a stretching cable: stiffness and hardening must be positive")
-        if np.any(self.table[P_VSCALE] <= 0) or np.any(self.table[P_JM] <= 0):
+        if np.any(self.table[VELOCITY_SCALE] <= 0) or np.any(self.table[MOTOR_INERTIA] <= 0):
             raise ValueError("friction velocity scales and motor inertias must be positive")
 
     @classmethod
@@ -88,26 +96,9 @@ class CableModel:
         """
         if not params.is_enabled("cable_stretch"):
             raise ValueError("the UKF models the cable stretch; the parameter set has cable_stretch off")
-        offsets = np.asarray(offsets, dtype=float)
-        if offsets.shape != (3,) or not np.all(np.isfinite(offsets)):
-            raise ValueError(f"offsets must be 3 finite values (rad, rad, m), got {offsets!r}")
         c = params.constants
         ratio = c.transmission_ratio[:3]
-        stretch = params.effect("cable_stretch")
-        coulomb = params.effect("coulomb_friction")
-        table = np.zeros((N_TABLE_ROWS, 3))
-        table[P_STIFFNESS] = stretch.stiffness
-        table[P_HARDENING] = stretch.hardening
-        table[P_DAMPING] = stretch.damping
-        table[P_COULOMB] = coulomb.force if coulomb.enabled else 0.0
-        table[P_VSCALE] = coulomb.velocity_scale
-        viscous = params.effect("viscous_friction")
-        table[P_VISCOUS] = viscous.coefficient if viscous.enabled else 0.0
-        gravity = params.effect("gravity_stretch")
-        table[P_LOAD] = gravity.load_scale if gravity.enabled else 0.0
-        table[P_OFFSET] = offsets
-        table[P_JM] = c.motor_inertia[:3] * ratio ** 2
-        table[P_BM] = c.motor_damping[:3] * ratio ** 2
+        table = joint_table(params, offsets)
         coupling = params.effect("coupling")
         delta = coupling.delta if coupling.enabled else np.zeros(3)
         counts = c.encoder_counts_per_rev
@@ -123,15 +114,15 @@ class CableModel:
 
     @property
     def motor_inertia(self) -> np.ndarray:
-        return self.table[P_JM]
+        return self.table[MOTOR_INERTIA]
 
     def cable_ends(self, motor: np.ndarray) -> np.ndarray:
         """Cable-end positions ``A u + offset`` (joint units) of motor coordinates (..., 3)."""
-        return np.asarray(motor) @ self.coupling.T + self.table[P_OFFSET]
+        return np.asarray(motor) @ self.coupling.T + self.table[OFFSET]
 
     def static_joints(self, motor: np.ndarray, gravity_torque) -> np.ndarray:
         """Joints at rest under a load: cable ends minus the stretch of the gravity tension."""
-        tension = self.table[P_LOAD] * np.asarray(gravity_torque)
-        stretch = np.array([cable_stretch_curve(tension[..., i], self.table[P_STIFFNESS, i], self.table[P_HARDENING, i])
+        tension = self.table[LOAD_SCALE] * np.asarray(gravity_torque)
+        stretch = np.array([cable_stretch_curve(tension[..., i], self.table[STIFFNESS, i], self.table[HARDENING, i])
                             for i in range(3)])
         return self.cable_ends(motor) - np.moveaxis(stretch, 0, -1)

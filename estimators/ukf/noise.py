@@ -20,7 +20,9 @@ import numpy as np
 
 from kinematics.gravity_closed_form import mass_matrix_fast
 
-from estimators.ukf.model import N_STATE, P_JM, P_STIFFNESS, CableModel
+from simulation.model.layout import MOTOR_INERTIA, STIFFNESS
+
+from estimators.ukf.model import N_STATE, CableModel
 
 HOME_JOINTS = np.array([np.pi / 6, np.pi / 2, 0.4])
 """The RAVEN-II home pose of joints 1-3 (rad, rad, m), where the starting link inertia is taken."""
@@ -98,7 +100,7 @@ def physical_process_noise(model: CableModel, torque_rmse, joint_rmse, log_perio
     torque_rmse = _positive3(np.maximum(np.asarray(torque_rmse, dtype=float), 1e-9), "torque_rmse")
     joint_rmse = _positive3(np.maximum(np.asarray(joint_rmse, dtype=float), 1e-12), "joint_rmse")
     root = np.sqrt(log_period)
-    motor = torque_rmse * root / model.table[P_JM]
+    motor = torque_rmse * root / model.table[MOTOR_INERTIA]
     inertia = np.diag(mass_matrix_fast(HOME_JOINTS.copy(), model.gravity_coefficients))
-    joint = joint_rmse * model.table[P_STIFFNESS] * root / inertia
+    joint = joint_rmse * model.table[STIFFNESS] * root / inertia
     return ProcessNoise(motor=motor, joint=joint)

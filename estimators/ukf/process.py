@@ -12,9 +12,11 @@ and motors (as the simulator), and a linearly implicit step for the link frictio
 law is far too stiff near zero speed for an explicit step (slope coulomb / v_s). Every ``refresh``
 sub-steps the inertia, the gravity and the cable law (:func:`~simulation.model.laws.stiffness_tension`
 and its slope) are evaluated afresh; in between, the law follows the stretch by the addition
-theorem of sinh and cosh with fifth-order series of the small per-step change (a sub-step moves the
-stretch by about a thousandth of the hardening stretch), which avoids the costly sinh in the 1 kHz
-loop.
+theorem of sinh and cosh with fifth-order series of the small per-step change
+(:func:`~simulation.model.laws.advance_hyperbolic`; a sub-step moves the stretch by about a
+thousandth of the hardening stretch), which avoids the costly sinh in the 1 kHz loop. Every law is
+the model layer's (:mod:`simulation.model.laws`), the parameters are read from its one table layout
+(:mod:`simulation.model.layout`); only the integration is this module's.
 """
 
 from __future__ import annotations
@@ -23,22 +25,30 @@ import numpy as np
 from numba import njit
 
 from kinematics.gravity_closed_form import gravity_torques_fast, mass_matrix_fast
-from simulation.model.laws import cable_stiffness, stiffness_tension
-
-from estimators.ukf.model import (
-    N_STATE,
-    P_BM,
-    P_COULOMB,
-    P_DAMPING,
-    P_HARDENING,
-    P_JM,
-    P_LOAD,
-    P_OFFSET,
-    P_STIFFNESS,
-    P_VISCOUS,
-    P_VSCALE,
-    CableModel,
+from simulation.model.laws import (
+    advance_hyperbolic,
+    cable_end,
+    cable_stiffness,
+    coupled,
+    coupled_transpose,
+    friction_with_slope,
+    gravity_load,
+    stiffness_tension,
 )
+from simulation.model.layout import (
+    COULOMB,
+    DAMPING,
+    HARDENING,
+    LOAD_SCALE,
+    MOTOR_DAMPING,
+    MOTOR_INERTIA,
+    OFFSET,
+    STIFFNESS,
+    VELOCITY_SCALE,
+    VISCOUS,
+)
+
+from estimators.ukf.model import N_STATE, CableModel
 
 MAX_STEP = 1e-3
 """Longest integration sub-step (s): the RAVEN-II servo period."""
@@ -78,11 +88,11 @@ def propagate_states(states, motor_torque, duration, max_step, refresh, table, c
     """
     n_sub = max(1, int(np.ceil(duration / max_step - 1e-9)))
     h = duration / n_sub
-    stiffness, hardening, damping = table[P_STIFFNESS], table[P_HARDENING], table[P_DAMPING]
-    coulomb, viscous, load_scale = table[P_COULOMB], table[P_VISCOUS], table[P_LOAD]
-    offset, motor_damping = table[P_OFFSET], table[P_BM]
-    inverse_scale = 1.0 / table[P_VSCALE]
-    step_over_inertia = h / table[P_JM]
+    stiffness, hardening, damping = table[STIFFNESS], table[HARDENING], table[DAMPING]
+    coulomb, viscous, load_scale = table[COULOMB], table[VISCOUS], table[LOAD_SCALE]
+    offset, motor_damping = table[OFFSET], table[MOTOR_DAMPING]
+    inverse_scale = 1.0 / table[VELOCITY_SCALE]
+    step_over_inertia = h / table[MOTOR_INERTIA]
     u = np.empty(3)
     ud = np.empty(3)
     q = np.empty(3)
@@ -108,8 +118,8 @@ def propagate_states(states, motor_torque, duration, max_step, refresh, table, c
                 mass = mass_matrix_fast(q, gravity_coefficients)
                 gravity = gravity_torques_fast(q, gravity_coefficients)
             for i in range(3):
-                end = coupling[i, 0] * u[0] + coupling[i, 1] * u[1] + coupling[i, 2] * u[2] + offset[i]
-                end_rate = coupling[i, 0] * ud[0] + coupling[i, 1] * ud[1] + coupling[i, 2] * ud[2]
+                end = cable_end(coupling, u, offset[i], i)
+                end_rate = coupled(coupling, ud, i)
                 x0 = hardening[i]
                 limit = STRETCH_LIMIT * x0
                 stretch = min(max(end - q[i], -limit), limit)
@@ -118,29 +128,22 @@ def propagate_states(states, motor_torque, duration, max_step, refresh, table, c
                     law_sinh[i] = stiffness_tension(stretch, stiffness[i], x0) / scale
                     law_cosh[i] = cable_stiffness(stretch, stiffness[i], x0) / stiffness[i]
                 else:
-                    b = stretch / x0 - law_arg[i]
-                    b2 = b * b
-                    sinh_b = b * (1.0 + b2 * (1.0 / 6.0 + b2 / 120.0))
-                    cosh_b = 1.0 + b2 * (0.5 + b2 / 24.0)
-                    law_sinh[i], law_cosh[i] = (law_sinh[i] * cosh_b + law_cosh[i] * sinh_b,
-                                                law_cosh[i] * cosh_b + law_sinh[i] * sinh_b)
+                    law_sinh[i], law_cosh[i] = advance_hyperbolic(law_sinh[i], law_cosh[i], stretch / x0 - law_arg[i])
                 law_arg[i] = stretch / x0
                 tension[i] = stiffness[i] * x0 * law_sinh[i] + damping[i] * (end_rate - qd[i])
             for a in range(3):
                 for b in range(3):
                     lhs[a, b] = mass[a, b]
             for i in range(3):
-                # friction_force(q', coulomb, v_s, viscous) and its slope, sharing one tanh
-                th = np.tanh(qd[i] * inverse_scale[i])
-                friction = coulomb[i] * th + viscous[i] * qd[i]
-                lhs[i, i] += h * (coulomb[i] * inverse_scale[i] * (1.0 - th * th) + viscous[i])
-                rhs[i] = h * (tension[i] - load_scale[i] * gravity[i] - friction)
+                friction, slope = friction_with_slope(qd, inverse_scale, coulomb, viscous, i)
+                lhs[i, i] += h * slope
+                rhs[i] = h * (tension[i] - gravity_load(gravity[i], load_scale[i]) - friction)
             _solve_3x3(lhs, rhs, dv)
             for i in range(3):
                 qd[i] += dv[i]
                 q[i] += h * qd[i]
             for i in range(3):
-                load = coupling[0, i] * tension[0] + coupling[1, i] * tension[1] + coupling[2, i] * tension[2]
+                load = coupled_transpose(coupling, tension, i)
                 ud[i] += step_over_inertia[i] * (motor_torque[i] - load - motor_damping[i] * ud[i])
                 u[i] += h * ud[i]
         for i in range(3):

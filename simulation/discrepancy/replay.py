@@ -9,9 +9,11 @@ inertia), the cable law turns the loads into stretch, and the prediction is
     motor torque = (A^T T + J_u u'' + b_u u') * gearbox / transmission ratio,
 
 evaluated quasi-statically sample by sample (the cable's own vibration is far above the 30 Hz
-log). For generic data the nominal model is ``joint = reported + offset``. The residual the
-workflow studies is measured minus predicted, for the joints and, when the data has them, for
-the motor torques, which is what tells effects that look alike in the joints apart.
+log) with the model layer's laws (:mod:`simulation.model.laws`: cable tension and its inverse,
+tangent stiffness, gravity load, play, Bouc-Wen hysteresis). For generic data the nominal model
+is ``joint = reported + offset``. The residual the workflow studies is measured minus predicted,
+for the joints and, when the data has them, for the motor torques, which is what tells effects
+that look alike in the joints apart.
 """
 
 from __future__ import annotations
@@ -21,8 +23,18 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from simulation.model.laws import play
-from simulation.model.constants import coupling_matrix
+from simulation.model.laws import (
+    bouc_wen_rate,
+    bouc_wen_slope,
+    cable_stiffness,
+    cable_stiffness_curve,
+    cable_tension_curve,
+    coupling_matrix,
+    gravity_load,
+    play,
+    stiffness_tension,
+    stretch_from_tension,
+)
 from simulation.model.parameters import RavenParameters
 
 from simulation.discrepancy.signals import MeasuredSignals
@@ -50,7 +62,7 @@ def bouc_wen_series(rate: np.ndarray, time: np.ndarray, beta: float, gamma: floa
         steps = 1 + int(abs(r) * dt * (beta + gamma) * 10.0)
         h = dt / steps
         for _ in range(steps):
-            state += h * (r - beta * abs(r) * state - gamma * r * abs(state))
+            state += h * bouc_wen_rate(state, r, beta, gamma)
         z[n] = state
     return z
 
@@ -64,7 +76,7 @@ def _bouc_wen_after(z: float, stretch_change: float, beta: float, gamma: float) 
     ds = stretch_change / steps
     sign = 1.0 if ds > 0.0 else -1.0
     for _ in range(steps):
-        z += ds * (1.0 - beta * sign * z - gamma * abs(z))
+        z += ds * bouc_wen_slope(z, sign, beta, gamma)
     return z
 
 
@@ -78,13 +90,14 @@ def _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, s
     x = 0.5 * (lower + upper)
     for _ in range(50):
         z_x = _bouc_wen_after(z, x - previous, beta, gamma)
-        value = stiffness * hardening * np.sinh(x / hardening) / softening + k_h * z_x - target
+        value = stiffness_tension(x, stiffness, hardening) / softening + k_h * z_x - target
         if value > 0.0:
             upper = x
         else:
             lower = x
         sign = 1.0 if x >= previous else -1.0
-        slope = stiffness * np.cosh(x / hardening) / softening + k_h * max(1.0 - beta * sign * z_x - gamma * abs(z_x), 0.0)
+        slope = (cable_stiffness(x, stiffness, hardening) / softening
+                 + k_h * max(bouc_wen_slope(z_x, sign, beta, gamma), 0.0))
         step = x - value / slope
         if not (lower < step < upper):
             step = 0.5 * (lower + upper)
@@ -115,18 +128,18 @@ def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteres
     for k in range(n):
         stretch = base[k] - state
         z_stick = _bouc_wen_after(z, stretch - previous, beta, gamma)
-        tension = stiffness * hardening * np.sinh(stretch / hardening) / softening[k] + hysteresis_stiffness * z_stick
+        tension = stiffness_tension(stretch, stiffness, hardening) / softening[k] + hysteresis_stiffness * z_stick
         high = load[k] + dry
         low = load[k] - dry
         if tension > high or tension < low:
             target = high if tension > high else low
             if hysteresis_stiffness == 0.0:
-                stretch = hardening * np.arcsinh(target * softening[k] / (stiffness * hardening))
+                stretch = stretch_from_tension(target * softening[k], stiffness, hardening)
             else:
                 # bracket: the elastic-only stretches for the target shifted by the largest hysteretic tension
                 reach = hysteresis_stiffness / (beta + gamma) + 1e-9
-                lower = hardening * np.arcsinh((target - reach) * softening[k] / (stiffness * hardening)) - 1e-9
-                upper = hardening * np.arcsinh((target + reach) * softening[k] / (stiffness * hardening)) + 1e-9
+                lower = stretch_from_tension((target - reach) * softening[k], stiffness, hardening) - 1e-9
+                upper = stretch_from_tension((target + reach) * softening[k], stiffness, hardening) + 1e-9
                 stretch = _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, softening[k],
                                             hysteresis_stiffness, beta, gamma)
             z_stick = _bouc_wen_after(z, stretch - previous, beta, gamma)
@@ -216,7 +229,7 @@ class RavenModel:
         gravity, inertial = signals.link_loads(robot)
         load = inertial.copy()
         if p.is_enabled("gravity_stretch"):
-            load = load + gravity * p.effect("gravity_stretch").load_scale
+            load = load + gravity_load(gravity, p.effect("gravity_stretch").load_scale)
         if p.is_enabled("viscous_friction"):
             load = load + p.effect("viscous_friction").coefficient * velocity
         dry = p.effect("coulomb_friction").force if p.is_enabled("coulomb_friction") else np.zeros(3)
@@ -245,9 +258,9 @@ class RavenModel:
                     np.ascontiguousarray(softening[:, i]), law.stiffness[i], law.hardening[i], k_h[i],
                     beta[i], gamma[i], signals.time, first[i])
             stretch = base - link
-            tension = np.column_stack([law.stiffness[i] * law.hardening[i] * np.sinh(stretch[:, i] / law.hardening[i])
+            tension = np.column_stack([cable_tension_curve(stretch[:, i], law.stiffness[i], law.hardening[i])
                                        for i in range(3)]) / softening + k_h * z
-            compliance = softening / (law.stiffness * np.cosh(stretch / law.hardening))
+            compliance = softening / cable_stiffness_curve(stretch, law.stiffness, law.hardening)
         else:
             # rigid cable: the link rides on the capstans, friction only loads the motors
             link = base

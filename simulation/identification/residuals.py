@@ -17,6 +17,7 @@ and two measurements check it:
 The joint error fixes the cable law and the coupling, the torque error fixes the loads in absolute
 units (the gravity scale and the friction); together they separate the stiffness from the load.
 Each residual is divided by its channel's noise level and multiplied by a weight (0 drops it).
+The laws are the model layer's, in their casadi form (:mod:`simulation.model.laws_casadi`).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from simulation.model import laws_casadi as law
 from simulation.model.constants import RavenConstants
 from simulation.identification.layout import (
     COULOMB,
@@ -43,15 +45,6 @@ N_DATA = 30
 N_RESIDUALS = 6
 
 
-def symbolic_coupling(c01, c02, c12) -> ca.SX:
-    """:func:`simulation.model.constants.coupling_matrix` as a casadi expression."""
-    return ca.vertcat(
-        ca.horzcat(1.0, 0.0, 0.0),
-        ca.horzcat(-c01, 1.0, 0.0),
-        ca.horzcat(-c02 + c12 * c01, -c12, 1.0),
-    )
-
-
 def residual_function(layout: ParameterLayout, constants: RavenConstants, velocity_scale: np.ndarray) -> ca.Function:
     """casadi function ``(xi, d, sigma) -> r``: the 6 weighted, scaled residuals of one sample.
 
@@ -66,18 +59,18 @@ def residual_function(layout: ParameterLayout, constants: RavenConstants, veloci
     coulomb, viscous, load_scale = slots[COULOMB], slots[VISCOUS], slots[LOAD_SCALE]
     nominal = np.asarray(constants.cable_coupling, dtype=float)
     delta = slots[COUPLING_DELTA]
-    a = symbolic_coupling(nominal[0] + delta[0], nominal[1] + delta[1], nominal[2] + delta[2])
+    a = law.coupling_matrix(nominal[0] + delta[0], nominal[1] + delta[1], nominal[2] + delta[2])
     q, qd = d[D_Q], d[D_QD]
     u, ud, udd = d[D_U], d[D_UD], d[D_UDD]
-    tension = d[D_INERTIAL] + load_scale * d[D_GRAVITY] + coulomb * ca.tanh(qd / ca.DM(velocity_scale)) + viscous * qd
-    cable_end = a @ u + slots[OFFSETS]
+    tension = law.link_tension(d[D_INERTIAL], d[D_GRAVITY], qd, load_scale, coulomb, ca.DM(velocity_scale), viscous)
+    cable_end = law.cable_ends(a, u, slots[OFFSETS])
     if layout.rigid:
         predicted = cable_end
     else:
         elastic = tension - damping * (a @ ud - qd)
-        predicted = cable_end - x0 * ca.asinh(elastic / (k * x0))
+        predicted = cable_end - law.stretch_from_tension(elastic, k, x0)
     motor_inertia = ca.DM(constants.motor_inertia[:3] * constants.transmission_ratio[:3] ** 2)
     motor_damping = ca.DM(constants.motor_damping[:3] * constants.transmission_ratio[:3] ** 2)
-    torque = motor_inertia * udd + motor_damping * ud + a.T @ tension
+    torque = motor_inertia * udd + motor_damping * ud + law.motor_load(a, tension)
     residual = ca.vertcat(d[D_WQ] * (q - predicted), d[D_WT] * (d[D_TAU] - torque)) / sigma
     return ca.Function("cable_residual", [xi, d, sigma], [residual])
