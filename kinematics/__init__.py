@@ -4,7 +4,7 @@ Main entry points:
 
 * :class:`RavenII` -- Pinocchio model of one arm: ``forward_kinematics``,
   ``tool_position``, ``jacobian``, ``gravity_torques``, ``mass_matrix``,
-  ``gravity_coefficients``, ``joint_limits``, ``check_joint_limits``, ``to_urdf``;
+  ``gravity_coefficients``, ``joint_limits``, ``check_joint_limits``, ``to_urdf``, ``home_pose``;
 * :func:`gravity_torques_fast`, :func:`mass_matrix_fast` -- compiled (numba) closed
   forms for the 1 kHz simulator;
 * :mod:`kinematics.propagation` -- joint errors to tool-tip errors.
@@ -26,6 +26,7 @@ from kinematics.gravity_closed_form import (
 )
 from kinematics.joint_limits import (
     CONTROLLER_JOINT_LIMITS,
+    HOME_POSE,
     JOINT_NAMES,
     JOINT_UNITS,
     JointLimits,
@@ -47,6 +48,7 @@ from kinematics.raven_ii import RavenII
 __all__ = [
     "CONTROLLER_JOINT_LIMITS",
     "DEFAULT_GRAVITY",
+    "HOME_POSE",
     "JOINT_NAMES",
     "JOINT_UNITS",
     "JointLimits",

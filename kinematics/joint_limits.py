@@ -64,6 +64,13 @@ CONTROLLER_JOINT_LIMITS = JointLimits(
 and ``include/raven/tool.h`` (tool roll, wrist, grasp)."""
 
 
+HOME_POSE = (_rad(30.0), _rad(90.0), 0.4, 0.0, 0.0, 0.0)
+"""The controller's home pose as a joint vector J (rad, rad, m, rad, rad, rad): SHOULDER, ELBOW and
+Z_INS home values of ``include/raven/defines.h`` (30 deg, 90 deg, 0.4 m), TOOL_ROT_HOME_ANGLE and
+WRIST_HOME_ANGLE (0), and both grasp jaws at GRASP1/GRASP2_HOME_ANGLE (45 deg), whose
+``(grasp2 - grasp1) / 2`` is 0. Inside :data:`CONTROLLER_JOINT_LIMITS`."""
+
+
 def describe_joint(index: int) -> str:
     """``"elbow (J1)"``-style label of joint ``index`` for messages."""
     return f"{JOINT_NAMES[index]} (J{index})"

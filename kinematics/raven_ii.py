@@ -28,6 +28,7 @@ from kinematics.dh_batch import LinkConstants, tool_jacobians, tool_transforms
 from kinematics.gravity_closed_form import pack_coefficients
 from kinematics.joint_limits import (
     CONTROLLER_JOINT_LIMITS,
+    HOME_POSE,
     JointLimits,
     as_joint_array,
     check_joint_limits,
@@ -153,6 +154,16 @@ class RavenII:
     def joint_limits(self) -> tuple[np.ndarray, np.ndarray]:
         """``(lower, upper)`` bounds of J0..J5 (rad, m), shape (6,) each."""
         return self._params.limits.arrays
+
+    @staticmethod
+    def home_pose() -> np.ndarray:
+        """The controller's home pose, a joint vector J of shape (6,) (rad, rad, m, rad, rad, rad).
+
+        Shoulder 30 deg, elbow 90 deg, insertion 0.4 m, tool roll, wrist and grasp 0: the home
+        values of ``include/raven/defines.h`` (see :data:`kinematics.joint_limits.HOME_POSE`).
+        A new array each call.
+        """
+        return np.array(HOME_POSE)
 
     def create_data(self) -> pin.Data:
         """A new Pinocchio work buffer for this model."""

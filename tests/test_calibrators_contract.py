@@ -3,11 +3,15 @@
 Each calibrator is default-constructed, except that the networks train briefly on one thread
 (`max_epochs` low, small hidden sizes for the LSTM and the forest) so that the ~60 checks per
 estimator stay fast. The window calibrators are expected to fail exactly the two checks that
-assume rows are independent samples; every other check must pass.
+assume rows are independent samples; every other check must pass, except the array-API check
+that is not run (see NOT_RUN).
 """
 
 from __future__ import annotations
 
+from functools import partial
+
+import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from estimators import (
@@ -32,6 +36,15 @@ ROW_ORDER_DEPENDENT = {
         "a window calibrator's prediction for a row depends on the rows before it",
 }
 
+# scikit-learn's check_array_api_input, for an estimator without array-API support (none of the
+# calibrators declares it), checks that numpy input gives the same results with array-API dispatch
+# switched on; it needs SCIPY_ARRAY_API=1 set before scipy is first imported, and otherwise skips
+# itself. Setting it would switch scipy's experimental array-API mode on for the whole test
+# session, so the check is left out here rather than reported as 8 skips. (Run with the variable
+# set, every calibrator passes it: SCIPY_ARRAY_API=1 and check_array_api_input(name, estimator,
+# array_namespace="numpy", expect_only_array_outputs=False).)
+NOT_RUN = {"check_array_api_input": "needs SCIPY_ARRAY_API=1 for the whole session"}
+
 CALIBRATORS = [
     FixedOffsetCalibrator(),
     LinearCalibrator(),
@@ -50,6 +63,19 @@ def _expected_failures(estimator):
     return {}
 
 
-@parametrize_with_checks(CALIBRATORS, expected_failed_checks=_expected_failures)
+def _check_name(check) -> str:
+    return check.func.__name__ if isinstance(check, partial) else check.__name__
+
+
+def _contract_checks():
+    """scikit-learn's parametrization of every (calibrator, check) pair, without NOT_RUN."""
+    marker = parametrize_with_checks(CALIBRATORS, expected_failed_checks=_expected_failures)
+    names, cases = marker.args
+    kept = [case for case in cases
+            if _check_name(getattr(case, "values", case)[1]) not in NOT_RUN]
+    return pytest.mark.parametrize(names, kept, **marker.kwargs)
+
+
+@_contract_checks()
 def test_sklearn_contract(estimator, check):
     check(estimator)

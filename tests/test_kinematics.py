@@ -334,3 +334,15 @@ def test_fast_mass_matrix_equals_pinocchio(robot, payload):
     for qn, en in zip(q, expected):
         coeffs = robot.gravity_coefficients(payload, tool_joints=qn[3:])
         np.testing.assert_allclose(mass_matrix_fast(qn[:3], coeffs), en, atol=1e-12)
+
+
+def test_home_pose_is_the_controllers_home_and_inside_the_limits(robot):
+    # defines.h: SHOULDER_HOME 30 deg, ELBOW_HOME 90 deg, Z_INS_HOME 0.4 m, tool roll and wrist 0,
+    # both grasp jaws at 45 deg, so the controller's grasp coordinate (grasp2 - grasp1) / 2 is 0
+    expected = [30 * DEG, 90 * DEG, 0.4, 0.0, 0.0, 0.0]
+    home = RavenII.home_pose()
+    np.testing.assert_allclose(home, expected, rtol=0, atol=1e-15)
+    robot.check_joint_limits(home)
+    home[0] = 0.0  # a fresh array each call: changing one leaves the next untouched
+    np.testing.assert_allclose(RavenII.home_pose(), expected, rtol=0, atol=1e-15)
+    assert robot.tool_position(RavenII.home_pose()).shape == (3,)

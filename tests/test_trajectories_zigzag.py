@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import pathlib
-import subprocess
-
 import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
@@ -21,7 +18,6 @@ from simulation.trajectories import (
     zigzag_normalized,
 )
 
-PUBLISHED_REPO = pathlib.Path("/work/.mirror/uw-biorobotics+raven2_CRTK_Python_controller/repo")
 SPARSITIES = (1 / 2, 1 / 3, 1 / 4, 1 / 6)
 
 
@@ -152,17 +148,82 @@ def test_j1_at_half_sparsity_is_the_published_snake():
     np.testing.assert_allclose(points[-1], [high, high, high], atol=1e-12)
 
 
-def published_path(name: str) -> np.ndarray:
-    if not PUBLISHED_REPO.exists():
-        pytest.skip("mirror of uw-biorobotics/raven2_CRTK_Python_controller not available")
-    text = subprocess.run(
-        ["git", "-C", str(PUBLISHED_REPO), "show", f"HEAD:traj_generator/generated_trajs/{name}"],
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
-    path = np.loadtxt(text.splitlines(), delimiter=",")
-    return CALIBRATION_WORKSPACE.normalize(path)
+# Lanes of the published generator's paths, (start, end) of each straight run one cube side long,
+# in normalized coordinates (CALIBRATION_WORKSPACE.normalize), rounded to 1e-6. Read from
+# traj_generator/generated_trajs/<file> of github.com/uw-biorobotics/raven2_CRTK_Python_controller
+# (commit c83e669a15029d99f9d5574686b8b4d002eb7f7e) with `lanes(path, CUBE_SIDE)` below; the
+# first lane starts at the path's first point.
+PUBLISHED_LANES = {
+    "zigzag_traj_dir_x_0.3333.csv": (
+        (0.211325, 0.211325, 0.211325), (0.788675, 0.211325, 0.211325),
+        (0.788675, 0.404160, 0.211325), (0.211325, 0.404160, 0.211325),
+        (0.211325, 0.596995, 0.211325), (0.788675, 0.596995, 0.211325),
+        (0.788675, 0.789830, 0.211325), (0.211325, 0.789830, 0.211325),
+        (0.211325, 0.789830, 0.404160), (0.788675, 0.789830, 0.404160),
+        (0.788675, 0.596995, 0.404160), (0.211325, 0.596995, 0.404160),
+        (0.211325, 0.404160, 0.404160), (0.788675, 0.404160, 0.404160),
+        (0.788675, 0.211325, 0.404160), (0.211325, 0.211325, 0.404160),
+        (0.211325, 0.211325, 0.596995), (0.788675, 0.211325, 0.596995),
+        (0.788675, 0.404160, 0.596995), (0.211325, 0.404160, 0.596995),
+        (0.211325, 0.596995, 0.596995), (0.788675, 0.596995, 0.596995),
+        (0.788675, 0.789830, 0.596995), (0.211325, 0.789830, 0.596995),
+        (0.211325, 0.789830, 0.789830), (0.788675, 0.789830, 0.789830),
+        (0.788675, 0.596995, 0.789830), (0.211325, 0.596995, 0.789830),
+        (0.211325, 0.404160, 0.789830), (0.788675, 0.404160, 0.789830),
+        (0.788675, 0.211325, 0.789830), (0.211325, 0.211325, 0.789830),
+    ),
+    "zigzag_traj_dir_x_0.25.csv": (
+        (0.211325, 0.211325, 0.211325), (0.788675, 0.211325, 0.211325),
+        (0.788675, 0.355662, 0.211325), (0.211325, 0.355662, 0.211325),
+        (0.211325, 0.500000, 0.211325), (0.788675, 0.500000, 0.211325),
+        (0.788675, 0.644338, 0.211325), (0.211325, 0.644338, 0.211325),
+        (0.211325, 0.788675, 0.211325), (0.788675, 0.788675, 0.211325),
+        (0.788675, 0.788675, 0.355662), (0.211325, 0.788675, 0.355662),
+        (0.211325, 0.644338, 0.355662), (0.788675, 0.644338, 0.355662),
+        (0.788675, 0.500000, 0.355662), (0.211325, 0.500000, 0.355662),
+        (0.211325, 0.355662, 0.355662), (0.788675, 0.355662, 0.355662),
+        (0.788675, 0.211325, 0.355662), (0.211325, 0.211325, 0.355662),
+        (0.211325, 0.211325, 0.500000), (0.788675, 0.211325, 0.500000),
+        (0.788675, 0.355662, 0.500000), (0.211325, 0.355662, 0.500000),
+        (0.211325, 0.500000, 0.500000), (0.788675, 0.500000, 0.500000),
+        (0.788675, 0.644338, 0.500000), (0.211325, 0.644338, 0.500000),
+        (0.211325, 0.788675, 0.500000), (0.788675, 0.788675, 0.500000),
+        (0.788675, 0.788675, 0.644338), (0.211325, 0.788675, 0.644338),
+        (0.211325, 0.644338, 0.644338), (0.788675, 0.644338, 0.644338),
+        (0.788675, 0.500000, 0.644338), (0.211325, 0.500000, 0.644338),
+        (0.211325, 0.355662, 0.644338), (0.788675, 0.355662, 0.644338),
+        (0.788675, 0.211325, 0.644338), (0.211325, 0.211325, 0.644338),
+        (0.211325, 0.211325, 0.788675), (0.788675, 0.211325, 0.788675),
+        (0.788675, 0.355662, 0.788675), (0.211325, 0.355662, 0.788675),
+        (0.211325, 0.500000, 0.788675), (0.788675, 0.500000, 0.788675),
+        (0.788675, 0.644338, 0.788675), (0.211325, 0.644338, 0.788675),
+        (0.211325, 0.788675, 0.788675), (0.788675, 0.788675, 0.788675),
+    ),
+    "zigzag_traj_dir_xy_0.3333.csv": (
+        (0.500000, 0.091752, 0.211325), (0.908248, 0.500000, 0.211325),
+        (0.771893, 0.636355, 0.211325), (0.363645, 0.228107, 0.211325),
+        (0.227290, 0.364462, 0.211325), (0.635538, 0.772710, 0.211325),
+        (0.499184, 0.909065, 0.211325), (0.090935, 0.500816, 0.211325),
+        (0.090935, 0.500816, 0.404160), (0.499184, 0.909065, 0.404160),
+        (0.635538, 0.772710, 0.404160), (0.227290, 0.364462, 0.404160),
+        (0.363645, 0.228107, 0.404160), (0.771893, 0.636355, 0.404160),
+        (0.908248, 0.500000, 0.404160), (0.500000, 0.091752, 0.404160),
+        (0.500000, 0.091752, 0.596995), (0.908248, 0.500000, 0.596995),
+        (0.771893, 0.636355, 0.596995), (0.363645, 0.228107, 0.596995),
+        (0.227290, 0.364462, 0.596995), (0.635538, 0.772710, 0.596995),
+        (0.499184, 0.909065, 0.596995), (0.090935, 0.500816, 0.596995),
+        (0.090935, 0.500816, 0.789830), (0.499184, 0.909065, 0.789830),
+        (0.635538, 0.772710, 0.789830), (0.227290, 0.364462, 0.789830),
+        (0.363645, 0.228107, 0.789830), (0.771893, 0.636355, 0.789830),
+        (0.908248, 0.500000, 0.789830), (0.500000, 0.091752, 0.789830),
+    ),
+}
+PUBLISHED_ROUNDING = 1e-6
+
+
+def published_lanes(name: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    flat = np.asarray(PUBLISHED_LANES[name], dtype=float)
+    return [(start, end) for start, end in zip(flat[0::2], flat[1::2])]
 
 
 @pytest.mark.parametrize(
@@ -174,19 +235,18 @@ def published_path(name: str) -> np.ndarray:
     ],
 )
 def test_matches_the_lanes_of_the_published_generator(file_name, direction, sparsity):
-    published = published_path(file_name)
+    published = published_lanes(file_name)
     ours = zigzag_normalized(direction, sparsity)
-    published_lanes = lanes(published, CUBE_SIDE)
     our_lanes = lanes(ours, CUBE_SIDE)
-    assert len(our_lanes) == len(published_lanes) == lanes_per_axis(sparsity) ** 2
+    assert len(our_lanes) == len(published) == lanes_per_axis(sparsity) ** 2
     # the published generator accumulates 1e-3 steps, so its lanes sit up to 0.002 cube sides off
     np.testing.assert_allclose(
-        [a for a, _ in our_lanes], [a for a, _ in published_lanes], atol=0.003 * CUBE_SIDE
+        [a for a, _ in our_lanes], [a for a, _ in published], atol=0.003 * CUBE_SIDE
     )
     np.testing.assert_allclose(
-        [b for _, b in our_lanes], [b for _, b in published_lanes], atol=0.003 * CUBE_SIDE
+        [b for _, b in our_lanes], [b for _, b in published], atol=0.003 * CUBE_SIDE
     )
-    np.testing.assert_allclose(ours[0], published[0], atol=1e-9)
+    np.testing.assert_allclose(ours[0], published[0][0], atol=PUBLISHED_ROUNDING)
 
 
 @pytest.mark.parametrize("direction", ["J4", "j1", "dir_x", "J3-J1", ""])
