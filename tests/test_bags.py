@@ -228,27 +228,6 @@ def test_time_going_backwards_names_topic_and_sample(good_bag, tmp_path):
         read_bag(path)
 
 
-@pytest.mark.parametrize("topic, sample, expected", [
-    (STATE_TOPIC, 7, r"topic '/ravenstate': field 'tau' is not finite at sample 7"),
-    (TRUTH_TOPIC, 42, r"topic '/ext_jpos': position is not finite at sample 42"),
-])
-def test_nan_names_file_topic_field_and_sample(good_bag, tmp_path, topic, sample, expected):
-    def poison(message_topic, index, message):
-        if message_topic == topic and index == sample:
-            if topic == STATE_TOPIC:
-                message.tau = np.where(np.arange(16) == 3, np.float32(np.nan), message.tau)
-            else:
-                message.position = np.array([0.1, np.nan, 0.3])
-        return message
-
-    path = rewrite(good_bag, tmp_path / "nan.bag", poison)
-    with pytest.raises(BagFormatError, match=r"nan\.bag: " + expected):
-        read_bag(path)
-    with pytest.raises(BagFormatError):
-        convert_bag(path, tmp_path / "nan.csv")
-    assert not (tmp_path / "nan.csv").exists()
-
-
 def test_labels_out_of_step_with_the_state_are_refused(good_bag, tmp_path):
     path = rewrite(good_bag, tmp_path / "labels.bag",
                    lambda topic, index, message: (setattr(message.header.stamp, "nanosec", 0) or message)

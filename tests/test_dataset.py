@@ -9,6 +9,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import simulation.recordings.dataset as dataset_module
+from simulation.recordings import VALID_COLUMN
 from simulation.recordings.dataset import (
     ALL,
     FEATURE_COLUMNS,
@@ -167,7 +168,10 @@ def test_parquet_round_trip_is_equal_and_carries_metadata(paired, tmp_path):
     dataset = synchronize(*paired)
     path = dataset.to_parquet(tmp_path / "set.parquet")
     back = CalibrationDataset.read_parquet(path)
-    pd.testing.assert_frame_equal(back.table, dataset.table)
+    # the paired logs are random, so the limit check on reading flags many of their rows: every
+    # other column comes back equal, and reading only adds flags, never clears one
+    pd.testing.assert_frame_equal(back.table.drop(columns=VALID_COLUMN), dataset.table.drop(columns=VALID_COLUMN))
+    assert not np.any(back.valid_mask() & ~dataset.valid_mask())
     assert (back.arm, back.n_dropped_outside, back.n_dropped_in_gaps, back.max_gap) == (
         dataset.arm, dataset.n_dropped_outside, dataset.n_dropped_in_gaps, dataset.max_gap)
     metadata = json.loads(pq.read_schema(path).metadata[METADATA_KEY])
