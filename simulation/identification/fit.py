@@ -258,17 +258,28 @@ def _covariance(jac: np.ndarray, residuals: np.ndarray, used: np.ndarray, method
     """Covariance of the unknowns from the residual Jacobian, and the Jacobian's condition number.
 
     The inverse of ``J^T J`` floors its eigenvalues instead of dropping them, so a direction the
-    data leave flat shows as a huge variance rather than none.
+    data leave flat shows as a huge variance rather than none. The sandwich of ``method="hac"``
+    would give such a direction ``v' Omega v / floor^2`` with ``v' Omega v`` itself close to zero
+    (the scores have no component along a flat direction): a tiny variance decided by rounding.
+    Flat directions therefore get the classical variance ``s^2 / floor`` in both methods, and the
+    sandwich covers the others.
     """
     flat = jac.reshape(-1, jac.shape[2])
     hessian = flat.T @ flat
     values, vectors = np.linalg.eigh(hessian)
-    inverse = (vectors / np.maximum(values, max(float(values[-1]), 1e-300) * 1e-18)) @ vectors.T
+    floor = max(float(values[-1]), 1e-300) * 1e-18
+    inverse = (vectors / np.maximum(values, floor)) @ vectors.T
+    dof = max(float(used.sum()) - jac.shape[2], 1.0)
+    noise = float(np.sum(residuals ** 2) / dof)
     if method == "hac":
         cov = inverse @ _hac_scores(jac, residuals, lags) @ inverse
+        floored = values < floor
+        if np.any(floored):
+            kept = vectors[:, ~floored]
+            projector = kept @ kept.T
+            cov = projector @ cov @ projector + (vectors[:, floored] * (noise / floor)) @ vectors[:, floored].T
     else:
-        dof = max(float(used.sum()) - jac.shape[2], 1.0)
-        cov = inverse * float(np.sum(residuals ** 2) / dof)
+        cov = inverse * noise
     scale = np.sqrt(np.maximum(np.diag(hessian), 1e-300))
     normalised = np.linalg.eigvalsh(hessian / np.outer(scale, scale))
     condition = float(np.sqrt(normalised[-1] / max(normalised[0], 1e-300)))
