@@ -18,9 +18,9 @@ from numba import njit
 from kinematics.gravity_closed_form import gravity_torques_fast
 
 from simulation.engine.tables import (
-    C_HOLD, C_HOMESTART, C_HOMESTATE, C_INT, C_OFF, C_POWERON, C_READY, C_SETTLE, E_HOMING, E_NOISE,
-    E_QUANT, MODE_TRAJECTORY, R_DACMAX, R_DPA, R_GEAR, R_HOMEDAC, R_HOMESPEED, R_HREP, R_INOISE, R_KD,
-    R_KI, R_KP, R_REGPOS, R_TPA, R_TR, S_SETTLE,
+    C_HOLD, C_HOMESTART, C_HOMESTATE, C_INT, C_OFF, C_POWERON, C_READY, C_SETTLE, E_GRAVERROR, E_HOMING,
+    E_NOISE, E_QUANT, E_REGISTRATION, MODE_TRAJECTORY, R_DACMAX, R_DPA, R_GEAR, R_GERR, R_HOMEDAC,
+    R_HOMESPEED, R_HREP, R_INOISE, R_KD, R_KI, R_KP, R_REGPOS, R_ROFF, R_RREP, R_TPA, R_TR, S_SETTLE,
 )
 
 
@@ -137,6 +137,8 @@ def servo_control(mode, ctrl, table, flags, tr, a_nom_inv, gb, tsign, dt, grav_c
     values ``dac``, the torques the amplifiers apply at the gearbox output ``tau_applied`` (with
     the ``noise`` effect's current noise: one standard normal per DOF from numba's random
     state) and the same in joint units ``tau_u``. ``tmp3``, ``q3``, ``gctrl`` (3,) are scratch.
+    With ``gravity_model_error`` on, the gravity compensation of joint j is ``1 + scale_error[j]``
+    times the model's.
     """
     for i in range(3):
         tmp3[i] = a_nom_inv[i, 0] * qd_des[0] + a_nom_inv[i, 1] * qd_des[1] + a_nom_inv[i, 2] * qd_des[2]
@@ -163,7 +165,11 @@ def servo_control(mode, ctrl, table, flags, tr, a_nom_inv, gb, tsign, dt, grav_c
         ctrl[C_INT + j] += err * dt
         tau_d[j] = table[R_KP, j] * err + table[R_KD, j] * (mvel_d[j] - mvel[j]) + table[R_KI, j] * ctrl[C_INT + j]
         if mode == MODE_TRAJECTORY and j < 3:
-            tau_d[j] += gctrl[j] / tr[j] * table[R_GEAR, j]
+            if flags[E_GRAVERROR] == 1:
+                # the controller's masses are not the arm's (gravity_model_error)
+                tau_d[j] += (1.0 + table[R_GERR, j]) * gctrl[j] / tr[j] * table[R_GEAR, j]
+            else:
+                tau_d[j] += gctrl[j] / tr[j] * table[R_GEAR, j]
         cmd = tau_d[j] / table[R_TPA, j] * table[R_DPA, j]
         if flags[E_QUANT] == 1:
             cmd = float(int(cmd))
@@ -228,6 +234,14 @@ def register_encoders(table, flags, a_nom_inv, plant, ctrl, enc, counts_per_rad)
     else:
         for j in range(7):
             ctrl[C_OFF + j] = ctrl[C_POWERON + j]
+    if flags[E_REGISTRATION] == 1:
+        # the stops are not where defines.h puts them: the controller's joints read off by d
+        shift = np.zeros(3)
+        for i in range(3):
+            shift[i] = table[R_ROFF, i] + table[R_RREP, i] * np.random.standard_normal()
+        for i in range(3):
+            u_shift = a_nom_inv[i, 0] * shift[0] + a_nom_inv[i, 1] * shift[1] + a_nom_inv[i, 2] * shift[2]
+            ctrl[C_OFF + i] -= u_shift * tr[i] * counts_per_rad
     ctrl[C_READY] = 0.0
     for j in range(7):
         ctrl[C_INT + j] = 0.0

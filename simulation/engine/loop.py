@@ -42,15 +42,15 @@ from simulation.engine.controller import (
     desired_motion, detect_hard_stops, forward_coupling, register_encoders, servo_control,
 )
 from simulation.engine.plant import (
-    MASS_UPDATE_TICKS, cable_fatigue, cable_inputs, elastic_cable_step, gravity_load, refresh_inertia,
-    rigid_cable_step, tool_positions, tool_step,
+    MASS_UPDATE_TICKS, begin_motor_loss, cable_fatigue, cable_inputs, delivered_torque, elastic_cable_step,
+    end_motor_loss, gravity_load, refresh_inertia, rigid_cable_step, tool_positions, tool_step,
 )
 from simulation.engine.sensors import read_joint_encoders, read_motor_encoders
 from simulation.engine.tables import (
     C_HOLD, C_HOMESTART, C_HOMESTATE, C_INT, C_OFF, C_POWERON, C_PREV, C_READY, C_SEQ, C_SETTLE,
     E_STRETCH, MODE_HOMING, MODE_TRAJECTORY, N_CTRL, N_PLANT, N_ROWS, N_SCALARS, R_TR, S_CPR, S_DT, S_NSUB,
-    S_PAYLOAD, S_TIMESCALE, S_TOOLGB, S_TOOLSIGN, X_DOSE, X_PB, X_Q, X_QD, X_QF, X_QT, X_SF, X_U, X_UD,
-    X_Z, EngineTables, build_tables,
+    S_PAYLOAD, S_TIMESCALE, S_TOOLGB, S_TOOLSIGN, X_DOSE, X_MF, X_PB, X_Q, X_QD, X_QF, X_QT, X_SF, X_U,
+    X_UD, X_Z, EngineTables, build_tables,
 )
 
 __all__ = [
@@ -60,7 +60,7 @@ __all__ = [
     "LOG_GRAVITY", "N_LOG", "ILOG_ENC", "ILOG_DAC", "ILOG_SEQ", "N_ILOG",
     # defined in simulation.engine.tables
     "EngineTables", "build_tables", "N_ROWS", "N_SCALARS", "MODE_TRAJECTORY", "MODE_HOMING",
-    "X_U", "X_UD", "X_Q", "X_QD", "X_PB", "X_Z", "X_DOSE", "X_QT", "X_SF", "X_QF", "N_PLANT",
+    "X_U", "X_UD", "X_Q", "X_QD", "X_PB", "X_Z", "X_DOSE", "X_QT", "X_SF", "X_QF", "X_MF", "N_PLANT",
     "C_PREV", "C_INT", "C_OFF", "C_POWERON", "C_HOLD", "C_HOMESTATE", "C_HOMESTART", "C_SETTLE",
     "C_SEQ", "C_READY", "N_CTRL",
 ]
@@ -74,7 +74,7 @@ LOG_TENSION = 63   # 3 cable tensions (joint units)
 LOG_STRETCH = 66   # 3 cable stretches
 LOG_Z = 69         # 3 hysteresis states
 LOG_DOSE = 72      # 3 fatigue doses
-LOG_TAUAPPLIED = 75  # 7 applied torques (gearbox output)
+LOG_TAUAPPLIED = 75  # 7 applied torques (gearbox output; past the motor friction with it on)
 LOG_GRAVITY = 82   # 3 gravity holding torques of the plant
 N_LOG = 85
 # Integer log columns.
@@ -217,6 +217,7 @@ def servo_loop(mode, start_tick, n_ticks, traj_q, traj_qd, traj_rate, traj_t0,
         desired_motion(mode, ctrl, table, traj_q, traj_qd, traj_rate, t, traj_t0, jpos, qd_des, vd_des)
         servo_control(mode, ctrl, table, flags, tr, a_nom_inv, gb, tsign, dt, grav_ctrl, qd_des, vd_des,
                       mpos, mvel, jpos, tmp3, q3, gctrl, mpos_d, mvel_d, tau_d, dac, tau_applied, tau_u)
+        delivered_torque(plant, table, flags, tr, tau_applied)
         registered = False
         if mode == MODE_HOMING:
             registered = detect_hard_stops(ctrl, table, scalars, dac, jpos)
@@ -244,8 +245,9 @@ def servo_loop(mode, start_tick, n_ticks, traj_q, traj_qd, traj_rate, traj_t0,
         if k % MASS_UPDATE_TICKS == 0:
             # the inertia changes with the slow elbow and insertion angles only: refresh every few ticks
             refresh_inertia(q3, grav_plant, mass, inv_mass, unit, column)
+        begin_motor_loss(plant, flags)
         for _ in range(nsub):
-            cable_inputs(plant, table, flags, a_true, tr, p, pdot, pbdot, creep, stiff, fric, fc, fv)
+            cable_inputs(plant, table, flags, a_true, tr, p, pdot, pbdot, creep, stiff, fric, fc, fv, tension)
             if stretch_on:
                 elastic_cable_step(plant, table, flags, a_true, tr, h, tau_u, grav, mass, inv_mass, pbdot, creep,
                                    stiff, fc, fv, fric, tension, stretch, rhs, acc, v_free, visc, tmp3, dry)
@@ -253,7 +255,8 @@ def servo_loop(mode, start_tick, n_ticks, traj_q, traj_qd, traj_rate, traj_t0,
                 rigid_cable_step(plant, table, flags, a_true, tr, h, tau_u, grav, mass, fric, creep, tension,
                                  stretch, meff, rhs, tmp3, acc)
             cable_fatigue(plant, table, flags, h, payload, time_scale)
-            tool_step(plant, table, tr, h, gb, tsign, tau_u, tool_load)
+            tool_step(plant, table, flags, tr, h, gb, tsign, tau_u, tool_load)
+        end_motor_loss(plant, flags, nsub)
         tool_positions(plant, table, tr, gb, tsign, stretch_on, tool_load, mtrue, tool_nom)
 
         done = k + 1

@@ -17,6 +17,12 @@ The cable laws (tension, friction, play, hysteresis and fatigue rates) are those
 tick, then per semi-implicit Euler sub-step of ``h`` seconds :func:`cable_inputs`, one of the two
 cable steps, :func:`cable_fatigue` and :func:`tool_step`, and :func:`tool_positions` at the end of
 the tick. They update the plant state vector in place; the other arrays are outputs or scratch.
+
+The motor-side friction of the ``motor_friction`` effect is applied in the motor updates of the
+cable and tool steps (:func:`stick_slip_velocity`, :func:`motor_friction_bound`), summed over the
+tick's sub-steps between :func:`begin_motor_loss` and :func:`end_motor_loss`, and taken off the
+logged applied torque by :func:`delivered_torque`. With an effect switched off, these functions
+leave every operation of the engine as it was without the effect.
 """
 
 from __future__ import annotations
@@ -28,10 +34,10 @@ from kinematics.gravity_closed_form import gravity_torques_fast, mass_matrix_fas
 
 from simulation.engine.controller import tool_joints_from_motors
 from simulation.engine.tables import (
-    E_BACKLASH, E_COULOMB, E_DRIFT, E_GRAVITY, E_HYSTERESIS, E_RUNOUT, E_VISCOUS, R_BL, R_BM, R_DAMP,
-    R_DC, R_DK, R_DLG, R_DVREF, R_FC, R_FV, R_GEAR, R_GSCALE, R_HB, R_HG, R_HK, R_JM, R_K1, R_K3,
-    R_KTOOL, R_RUNOUT, R_STOP_HI, R_STOP_LO, R_VC, X_DOSE, X_PB, X_Q, X_QD, X_QF, X_QT, X_SF, X_U, X_UD,
-    X_Z,
+    E_BACKLASH, E_CAPSTAN, E_COULOMB, E_DRIFT, E_GRAVITY, E_HYSTERESIS, E_MOTORFRICTION, E_RUNOUT, E_VISCOUS,
+    R_BL, R_BM, R_CAPSTAN, R_DAMP, R_DC, R_DK, R_DLG, R_DVREF, R_FC, R_FV, R_GEAR, R_GSCALE, R_HB, R_HG, R_HK,
+    R_JM, R_K1, R_K3, R_KTOOL, R_MFC, R_MLOSS, R_RUNOUT, R_STOP_HI, R_STOP_LO, R_VC, X_DOSE, X_MF, X_PB, X_Q,
+    X_QD, X_QF, X_QT, X_SF, X_U, X_UD, X_Z,
 )
 from simulation.model.laws import bouc_wen_rate, fatigue_rate, friction_force, play, stiffness_tension
 
@@ -41,6 +47,60 @@ its fatigue follows the joint's travel (see ``Drift``)."""
 
 MASS_UPDATE_TICKS = 4
 """Servo ticks between refreshes of the links' inertia matrix (it moves < 0.01 % in 4 ms)."""
+
+
+@njit(cache=True, inline="always")
+def stick_slip_velocity(free_velocity: float, impulse: float) -> float:
+    """Velocity after a dry-friction impulse of at most ``impulse`` (velocity units) over one step.
+
+    The implicit (set-valued) Coulomb law on one body: it stops if the friction can stop it within
+    the step, otherwise friction takes ``impulse`` off its speed. ``free_velocity`` is the velocity
+    the step would reach without the friction.
+    """
+    if abs(free_velocity) <= impulse:
+        return 0.0
+    if free_velocity > 0.0:
+        return free_velocity - impulse
+    return free_velocity + impulse
+
+
+@njit(cache=True, inline="always")
+def motor_friction_bound(table, tr, j, transmitted):
+    """Dry-friction bound of motor ``j`` in joint units (``motor_friction`` effect).
+
+    The motor shaft's Coulomb torque through the transmission ratio plus the gearbox loss, a
+    friction proportional to the ``transmitted`` torque (joint units).
+    """
+    return table[R_MFC, j] * tr[j] + table[R_MLOSS, j] * abs(transmitted)
+
+
+@njit(cache=True, inline="always")
+def begin_motor_loss(plant, flags):
+    """Clear the motor-side friction accumulated over the last tick (``motor_friction`` on)."""
+    if flags[E_MOTORFRICTION] == 1:
+        for j in range(7):
+            plant[X_MF + j] = 0.0
+
+
+@njit(cache=True, inline="always")
+def end_motor_loss(plant, flags, nsub):
+    """Turn the motor-side friction summed over ``nsub`` sub-steps into its mean over the tick."""
+    if flags[E_MOTORFRICTION] == 1:
+        for j in range(7):
+            plant[X_MF + j] /= nsub
+
+
+@njit(cache=True, inline="always")
+def delivered_torque(plant, table, flags, tr, tau_applied):
+    """With ``motor_friction`` on, make ``tau_applied`` (7,) the torque delivered past the motor.
+
+    Subtracts the motor-side friction of the last servo tick, converted from joint units to the
+    gearbox output (N m): the torque that reaches the capstan, which is what the amplifier's
+    command becomes after the motor's and the gearbox's friction. Unchanged with the effect off.
+    """
+    if flags[E_MOTORFRICTION] == 1:
+        for j in range(7):
+            tau_applied[j] -= plant[X_MF + j] * table[R_GEAR, j] / tr[j]
 
 
 @njit(cache=True)
@@ -95,14 +155,17 @@ def refresh_inertia(q3, grav_plant, mass, inv_mass, unit, column):
 
 
 @njit(cache=True, inline="always")
-def cable_inputs(plant, table, flags, a_true, tr, p, pdot, pbdot, creep, stiff, fric, fc, fv):
+def cable_inputs(plant, table, flags, a_true, tr, p, pdot, pbdot, creep, stiff, fric, fc, fv, tension):
     """What drives the cables in this sub-step: cable-side positions, play, creep, friction.
 
     Outputs (3,): cable-side positions ``p`` and rates ``pdot`` (``A u`` with capstan runout), the
     rate past the backlash ``pbdot`` (the backlash output is stored in the plant state), the
     ``drift`` effect's creep and stiffness factor ``stiff`` (unchanged with it off), the
     link friction ``fric`` at the current link velocities and the Coulomb and viscous
-    coefficients ``fc``, ``fv`` in force for the implicit friction solve.
+    coefficients ``fc``, ``fv`` in force for the implicit friction solve. With
+    ``capstan_friction`` on, the dry-friction bound grows by the capstan coefficient times the
+    cable ``tension`` (3,) of the previous sub-step (the loop's scratch, zero on the first
+    sub-step of each loop call: one 0.5 ms sub-step per call without it).
     """
     # cable-side positions of the positioning joints
     for i in range(3):
@@ -129,6 +192,11 @@ def cable_inputs(plant, table, flags, a_true, tr, p, pdot, pbdot, creep, stiff, 
             fric[i] += table[R_FV, i] * plant[X_QD + i]
         fc[i] = table[R_FC, i] if flags[E_COULOMB] == 1 else 0.0
         fv[i] = table[R_FV, i] if flags[E_VISCOUS] == 1 else 0.0
+    if flags[E_CAPSTAN] == 1:
+        for i in range(3):
+            capstan = table[R_CAPSTAN, i] * abs(tension[i])
+            fric[i] += friction_force(plant[X_QD + i], capstan, table[R_VC, i], 0.0)
+            fc[i] += capstan
 
 
 @njit(cache=True, inline="always")
@@ -182,12 +250,24 @@ def elastic_cable_step(plant, table, flags, a_true, tr, h, tau_u, grav, mass, in
         fric[i] = dry[i] + fv[i] * velocity
         plant[X_QD + i] = velocity
         plant[X_Q + i] += h * velocity
-    for i in range(3):
-        load = a_true[0, i] * tension[0] + a_true[1, i] * tension[1] + a_true[2, i] * tension[2]
-        ud_acc = (tau_u[i] - load - table[R_BM, i] * tr[i] * tr[i] * plant[X_UD + i]) \
-            / (table[R_JM, i] * tr[i] * tr[i])
-        plant[X_UD + i] += h * ud_acc
-        plant[X_U + i] += h * plant[X_UD + i]
+    if flags[E_MOTORFRICTION] == 1:
+        # motor-side dry friction (motor_friction): the motor sticks while the net torque is within
+        # its bound; the friction it applied is summed for the tick's delivered torque
+        for i in range(3):
+            load = a_true[0, i] * tension[0] + a_true[1, i] * tension[1] + a_true[2, i] * tension[2]
+            inertia = table[R_JM, i] * tr[i] * tr[i]
+            free = plant[X_UD + i] + h * (tau_u[i] - load - table[R_BM, i] * tr[i] * tr[i] * plant[X_UD + i]) / inertia
+            velocity = stick_slip_velocity(free, h * motor_friction_bound(table, tr, i, load) / inertia)
+            plant[X_MF + i] += (free - velocity) * inertia / h
+            plant[X_UD + i] = velocity
+            plant[X_U + i] += h * velocity
+    else:
+        for i in range(3):
+            load = a_true[0, i] * tension[0] + a_true[1, i] * tension[1] + a_true[2, i] * tension[2]
+            ud_acc = (tau_u[i] - load - table[R_BM, i] * tr[i] * tr[i] * plant[X_UD + i]) \
+                / (table[R_JM, i] * tr[i] * tr[i])
+            plant[X_UD + i] += h * ud_acc
+            plant[X_U + i] += h * plant[X_UD + i]
     for i in range(3):
         if plant[X_Q + i] < table[R_STOP_LO, i]:
             plant[X_Q + i] = table[R_STOP_LO, i]
@@ -224,6 +304,15 @@ def rigid_cable_step(plant, table, flags, a_true, tr, h, tau_u, grav, mass, fric
         tmp3[i] = tau_u[i] - (a_true[0, i] * rhs[0] + a_true[1, i] * rhs[1] + a_true[2, i] * rhs[2]) \
             - table[R_BM, i] * tr[i] * tr[i] * plant[X_UD + i]
     solve3(meff, tmp3, acc)
+    if flags[E_MOTORFRICTION] == 1:
+        # motor-side dry friction, per motor on the diagonal of the coupled inertia; the load it
+        # scales with is the tension of the previous sub-step
+        for i in range(3):
+            load = a_true[0, i] * tension[0] + a_true[1, i] * tension[1] + a_true[2, i] * tension[2]
+            free = plant[X_UD + i] + h * acc[i]
+            velocity = stick_slip_velocity(free, h * motor_friction_bound(table, tr, i, load) / meff[i, i])
+            plant[X_MF + i] += (free - velocity) * meff[i, i] / h
+            acc[i] = (velocity - plant[X_UD + i]) / h
     for i in range(3):
         plant[X_UD + i] += h * acc[i]
         plant[X_U + i] += h * plant[X_UD + i]
@@ -274,11 +363,13 @@ def cable_fatigue(plant, table, flags, h, payload, time_scale):
 
 
 @njit(cache=True, inline="always")
-def tool_step(plant, table, tr, h, gb, tsign, tau_u, tool_load):
+def tool_step(plant, table, flags, tr, h, gb, tsign, tau_u, tool_load):
     """One sub-step of ``h`` seconds of the four tool motors, with the instrument's friction.
 
     Outputs ``tool_load`` (4,): the torque the tool cables carry (joint units), for the
-    quasi-static compliance of :func:`tool_positions`.
+    quasi-static compliance of :func:`tool_positions`. With ``motor_friction`` on, the motors'
+    own dry friction (bound by the motor's command as the transmitted torque) acts first, on the
+    motor velocity; the cables do not carry it.
     """
     # tool DOFs: motors with rigid coupling and a quasi-static cable compliance
     for j in range(3, 7):
@@ -286,6 +377,10 @@ def tool_step(plant, table, tr, h, gb, tsign, tau_u, tool_load):
         tool_rate = plant[X_UD + j] - z_sign * plant[X_UD + 2] * tr[2] / (gb * tr[j])
         inertia = table[R_JM, j] * tr[j] * tr[j]
         free = plant[X_UD + j] + h * (tau_u[j] - table[R_BM, j] * tr[j] * tr[j] * plant[X_UD + j]) / inertia
+        if flags[E_MOTORFRICTION] == 1:
+            slowed = stick_slip_velocity(free, h * motor_friction_bound(table, tr, j, tau_u[j]) / inertia)
+            plant[X_MF + j] += (free - slowed) * inertia / h
+            free = slowed
         # the instrument's own friction on the tool joint (always on), implicit as for the
         # positioning joints
         coupled = plant[X_UD + j] - tool_rate

@@ -26,14 +26,18 @@ R_K1, R_K3, R_DAMP, R_KTOOL, R_GSCALE, R_FC, R_VC, R_FV = range(16, 24)
 R_BL, R_HK, R_HB, R_HG = range(24, 28)
 R_DK, R_DC, R_DLG, R_DVREF = range(28, 32)
 R_HREP, R_TRUTHRES, R_TRUTHNOISE, R_INOISE, R_RUNOUT = range(32, 37)
-N_ROWS = 37
+R_MFC, R_MLOSS, R_CAPSTAN, R_GERR, R_ROFF, R_RREP = range(37, 43)
+N_ROWS = 43
 
 # Effect switches.
 (E_STRETCH, E_GRAVITY, E_COUPLING, E_COULOMB, E_VISCOUS, E_BACKLASH, E_HYSTERESIS, E_DRIFT,
- E_HOMING, E_QUANT, E_NOISE, E_RUNOUT) = range(12)
+ E_HOMING, E_QUANT, E_NOISE, E_RUNOUT, E_MOTORFRICTION, E_CAPSTAN, E_GRAVERROR, E_TRANSMISSION,
+ E_REGISTRATION) = range(17)
+N_EFFECTS = 17
 assert EFFECT_NAMES == ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction",
                         "backlash", "hysteresis", "drift", "homing_offset", "quantization", "noise",
-                        "capstan_runout")
+                        "capstan_runout", "motor_friction", "capstan_friction", "gravity_model_error",
+                        "transmission_error", "registration_offset")
 
 # Scalars.
 S_DT, S_NSUB, S_TOOLGB, S_TOOLSIGN, S_CPR, S_TIMESCALE, S_SETTLE, S_PAYLOAD = range(8)
@@ -50,7 +54,8 @@ X_DOSE = 26      # 3 fatigue doses (equivalent hours)
 X_QT = 29        # 4 tool joint positions
 X_SF = 33        # 3 cable stretches smoothed over the hysteresis response time
 X_QF = 36        # 3 link positions smoothed the same way (the travel that ages the cables)
-N_PLANT = 39
+X_MF = 39        # 7 motor-side friction of the last servo tick (joint units, mean over its sub-steps)
+N_PLANT = 46
 
 # Controller state vector.
 C_PREV = 0       # 7 previous motor positions (rad, motor shaft)
@@ -78,7 +83,7 @@ class EngineTables:
     """
 
     table: np.ndarray          # (N_ROWS, 7)
-    flags: np.ndarray          # (12,) int64 effect switches
+    flags: np.ndarray          # (N_EFFECTS,) int64 effect switches
     scalars: np.ndarray        # (N_SCALARS,)
     coupling_nominal: np.ndarray  # (3, 3) controller's A
     coupling_true: np.ndarray     # (3, 3) the arm's A
@@ -157,6 +162,14 @@ def build_tables(params: RavenParameters, robot, payload_kg: float = 0.0, subste
     t[R_TRUTHNOISE, :3] = noise.truth_noise
     t[R_INOISE] = noise.current_noise
     t[R_RUNOUT, :3] = params.effect("capstan_runout").amplitude
+    motor = params.effect("motor_friction")
+    t[R_MFC] = motor.coulomb
+    t[R_MLOSS] = motor.gearbox_loss
+    t[R_CAPSTAN, :3] = params.effect("capstan_friction").coefficient
+    t[R_GERR, :3] = params.effect("gravity_model_error").scale_error
+    registration = params.effect("registration_offset")
+    t[R_ROFF, :3] = registration.offset
+    t[R_RREP, :3] = registration.repeatability
 
     flags = np.array([1 if params.is_enabled(n) else 0 for n in EFFECT_NAMES], dtype=np.int64)
     scalars = np.zeros(N_SCALARS)
@@ -173,6 +186,10 @@ def build_tables(params: RavenParameters, robot, payload_kg: float = 0.0, subste
     coupling = params.effect("coupling")
     delta = coupling.delta if coupling.enabled else np.zeros(3)
     true = coupling_matrix(*(np.asarray(c.cable_coupling) + delta))
+    transmission = params.effect("transmission_error")
+    if transmission.enabled:
+        # true ratio = nominal (1 + error): a motor coordinate moves its cable 1 / (1 + error) as far
+        true = true / (1.0 + transmission.ratio_error)[None, :]
     return EngineTables(
         table=t,
         flags=flags,

@@ -362,6 +362,201 @@ class CapstanRunout(Effect):
         object.__setattr__(self, "amplitude", _vector(self.amplitude, 3, "amplitude"))
 
 
+@dataclass(frozen=True)
+class MotorFriction(Effect):
+    """Dry friction of the motors and the load-dependent loss of their planetary gearboxes.
+
+    Acts on the motor side of the cable, so the torque that reaches the capstan is the amplifier's
+    torque less this friction: the logged command ``tau`` and the ``applied_torque`` channel (with
+    this effect on, the torque delivered at the gearbox output, averaged over the previous servo
+    tick) differ by it, with a sign that follows the motor velocity. Two terms, as a set-valued
+    (stick-slip) Coulomb law on the motor velocity, in the servo loop's joint units:
+
+        bound = coulomb * tr + gearbox_loss * |transmitted torque|,
+
+    with ``tr`` the transmission ratio, so ``coulomb * tr`` is the motor-shaft friction seen at the
+    joint; the transmitted torque is the cable's reaction at the gearbox output (positioning
+    joints) or the motor's command (tool joints, whose cables are not modelled as springs). The
+    motor sticks while the net torque on it is within ``bound``.
+
+    Sources of the defaults (seven DOFs: three RE40 + GP42, four RE30 + GP32):
+
+    * ``coulomb`` (N m at the motor shaft): no-load current times torque constant, the friction
+      torque a brushed DC motor's datasheet implies (maxon RE40 148877, 48 V: 69 mA x 60.3 mN m/A =
+      4.2 mN m; RE30 310007, 48 V: 88.2 mA x 53.8 mN m/A = 4.7 mN m; catalogue values).
+      ``RavenConstants.motor_damping`` turns the same datasheet figures into a tiny viscous term;
+      this effect keeps them as what they are, a speed-independent friction.
+    * ``gearbox_loss`` (dimensionless, >= 0): the friction per unit of transmitted torque of a
+      gearbox of efficiency ``eta``, ``(1 - eta) / eta`` (the input torque is the output over
+      ``eta``). Maxon GP42C, two-stage 12.25:1 as ``defines.h`` GEAR_BOX_GP42_TR = 49/4: maximum
+      efficiency 81 % (three-stage: 72 %); GP32 one-stage 3.7:1 as GEAR_BOX_GP32_TR = 26/7: 80 %.
+      The datasheet figure is the forward efficiency at nominal torque; the loss is taken equal in
+      both directions. :meth:`from_efficiency` builds the effect from efficiencies.
+    """
+
+    name: ClassVar[str] = "motor_friction"
+    enabled: bool = False
+    coulomb: np.ndarray = field(default_factory=lambda: np.array([0.069 * 0.0603] * 3 + [0.0882 * 0.0538] * 4))
+    gearbox_loss: np.ndarray = field(default_factory=lambda: (1.0 - np.array([0.81] * 3 + [0.80] * 4))
+                                     / np.array([0.81] * 3 + [0.80] * 4))
+
+    def __post_init__(self):
+        object.__setattr__(self, "coulomb", _vector(self.coulomb, 7, "coulomb"))
+        object.__setattr__(self, "gearbox_loss", _vector(self.gearbox_loss, 7, "gearbox_loss"))
+
+    @classmethod
+    def from_efficiency(cls, efficiency, **fields) -> "MotorFriction":
+        """The effect with the gearbox loss of the given efficiencies (7 values in (0, 1])."""
+        eta = _vector(efficiency, 7, "efficiency")
+        if np.any(eta <= 0) or np.any(eta > 1):
+            raise ValueError(f"efficiency must be in (0, 1], got {eta}")
+        return cls(gearbox_loss=(1.0 - eta) / eta, **fields)
+
+    @property
+    def efficiency(self) -> np.ndarray:
+        """Gearbox efficiency of each DOF, ``1 / (1 + gearbox_loss)``."""
+        return 1.0 / (1.0 + self.gearbox_loss)
+
+
+@dataclass(frozen=True)
+class CapstanFriction(Effect):
+    """Cable-pulley friction that grows with the cable tension (capstan friction).
+
+    A cable bent over a pulley through a wrap angle ``theta`` transmits at most ``T exp(mu theta)``
+    against friction coefficient ``mu`` (capstan equation); for small ``mu theta`` the friction is
+    ``mu theta |T|``. Miyasaka et al. (IROS 2015, "Measurement of the cable-pulley Coulomb and
+    viscous friction for a cable-driven surgical robotic system", test rigs built to the RAVEN II's
+    cables and pulleys) found the cable-pulley friction to be a function of the tension, the wrap
+    angle and the number of pulleys, not of the cable speed. The servo loop applies it as a
+    joint-side dry friction (set-valued, like ``coulomb_friction``) whose bound is
+
+        bound = mu * wrap_angle * |T|,
+
+    ``T`` the cable tension of the previous integration sub-step (joint units), so under a payload
+    the friction, and the stretch the cable carries for it, grow with the load, unlike the fixed
+    ``coulomb_friction``.
+
+    Defaults. ``wrap_angle`` (rad): total wrap over the idler pulleys between capstan and joint
+    (the capstan and the joint pulley, where the cable is terminated, do not slip): joint 1 is a
+    single alpha-wrapped partial pulley (``defines.h`` PARTIAL_PULLEY_LINK1_RADIUS) with a short
+    run, joint 2's cable passes the shoulder's idlers, joint 3's passes the shoulder's and the
+    elbow's and runs along the tool carriage; pi, 2 pi, 4 pi are estimates from that routing, not
+    measurements. ``mu`` (dimensionless): an effective coefficient of 0.01 per radian for a steel
+    rope over ball-bearing idlers (bending and bearing losses). Handbook dry sliding coefficients
+    (steel on aluminium about 0.5, steel on steel 0.5-0.8) apply only where a cable slides over a
+    fixed surface; on rotating pulleys they are an upper bound, far above it. Both defaults
+    are assumptions to be replaced by the Miyasaka measurements.
+    """
+
+    name: ClassVar[str] = "capstan_friction"
+    enabled: bool = False
+    mu: np.ndarray = field(default_factory=lambda: np.full(3, 0.01))
+    wrap_angle: np.ndarray = field(default_factory=lambda: np.array([np.pi, 2 * np.pi, 4 * np.pi]))
+
+    def __post_init__(self):
+        object.__setattr__(self, "mu", _vector(self.mu, 3, "mu"))
+        object.__setattr__(self, "wrap_angle", _vector(self.wrap_angle, 3, "wrap_angle"))
+
+    @property
+    def coefficient(self) -> np.ndarray:
+        """Friction per unit tension, ``mu * wrap_angle`` (dimensionless)."""
+        return self.mu * self.wrap_angle
+
+
+@dataclass(frozen=True)
+class GravityModelError(Effect):
+    """The controller's gravity compensation uses masses that differ from the arm's true ones.
+
+    The plant's links weigh what the kinematics model says (masses and centres of mass of
+    ``grav_comp.cpp``, with any payload); the controller's gravity compensation adds
+    ``(1 + scale_error[j])`` times the unloaded model's torque on positioning joint ``j``. The
+    difference is held by the PD loop on the motor encoders, so each motor settles off its desired
+    position by ``scale_error * g`` over the loop's stiffness ``kp * tr**2 / gearbox`` (joint
+    units; ``g`` the model's torque at the joints the controller measures), and the joints by that
+    through the coupling: a static error proportional to the gravity torque. ``scale_error`` is
+    dimensionless, per joint.
+
+    Default: 0.1 on every joint, an assumption of the size the controller's own history shows:
+    ``grav_comp.cpp`` replaced its masses 2.7 x (0.2395, 0.3568, 0.1500) kg = 0.6465, 0.9637,
+    0.405 kg by 0.494, 0.750, 0.231 kg ("masses updated using fresh links from raven 2.1 build"),
+    changes of 24 %, 22 % and 43 %; an individual arm, its cabling and its instrument adapter sit
+    some fraction of that from the values in the code.
+    """
+
+    name: ClassVar[str] = "gravity_model_error"
+    enabled: bool = False
+    scale_error: np.ndarray = field(default_factory=lambda: np.full(3, 0.1))
+
+    def __post_init__(self):
+        object.__setattr__(self, "scale_error", _vector(self.scale_error, 3, "scale_error", nonnegative=False))
+        if np.any(self.scale_error <= -1):
+            raise ValueError(f"scale_error must be above -1, got {self.scale_error}")
+
+
+@dataclass(frozen=True)
+class TransmissionError(Effect):
+    """The effective pulley and capstan radii differ from the controller's nominal ones.
+
+    The transmission ratios of ``defines.h`` are ratios of effective radii (groove radius plus
+    cable radius, e.g. PARTIAL_PULLEY_LINK1_RADIUS = 62.5 + 1.19 / 2 mm over CAPSTAN_RADIUS_GP42).
+    Where the cable really runs depends on its diameter tolerance and on how it seats in the
+    groove, so the true ratio is ``nominal * (1 + ratio_error)`` per positioning joint
+    (dimensionless): the joint moves ``1 / (1 + ratio_error)`` of what the controller computes
+    from its motor, and the controller's joint estimate is off by ``ratio_error`` times the true
+    distance from the pose where the encoders were registered (the hard stops with
+    ``homing_offset`` on, the power-on zero without it).
+
+    Default: 0.2 % on every joint. ``defines.h`` sets CAPSTAN_RADIUS_GP42 to 11.35 / 2 mm
+    "measured using caliper, plus validated empirically", replacing a design value of 6.0 mm
+    (5.4 + CABLE_RADIUS_1050): the nominal radius itself moved by 5.6 %, and a caliper's
+    0.02 mm on an 11.35 mm diameter leaves 0.18 % on the smallest radius of each ratio.
+    """
+
+    name: ClassVar[str] = "transmission_error"
+    enabled: bool = False
+    ratio_error: np.ndarray = field(default_factory=lambda: np.full(3, 0.002))
+
+    def __post_init__(self):
+        object.__setattr__(self, "ratio_error", _vector(self.ratio_error, 3, "ratio_error", nonnegative=False))
+        if np.any(self.ratio_error <= -1):
+            raise ValueError(f"ratio_error must be above -1, got {self.ratio_error}")
+
+
+@dataclass(frozen=True)
+class RegistrationOffset(Effect):
+    """The hard stops are not where the controller's registration says they are.
+
+    At homing the controller declares each positioning joint to be at its stop position of
+    ``defines.h`` (SHOULDER_MAX_ANGLE 0, ELBOW_MAX_ANGLE 3 pi / 4 + 2.5 deg, Z_INS_MAX_ANGLE
+    0.562 m). The real stop differs from that by its machining and assembly tolerance and by the
+    stop's own compliance under the homing torque: the controller's joint estimate is then off by
+    ``offset + repeatability * N(0, 1)`` (rad, rad, m), a new draw per homing, constant between
+    homings. With ``repeatability`` zero the offset is deterministic, the same at every homing.
+
+    This differs from ``homing_offset``: that effect is the registration taken while the cable is
+    stretched under the homing tension (its constant part scales with the cable stiffness and the
+    homing current, and disappears with rigid cables) and the scatter of where the motors end at
+    the threshold crossing (``repeatability`` there). This one is a property of the stops
+    themselves: it is there with rigid cables, does not depend on the homing current or the
+    cable stiffness, and its scatter is the stop contact's, not the homing search's.
+
+    Defaults (assumptions, stated as tolerances): ``offset`` = one standard deviation of a uniform
+    +-0.2 mm tolerance (ISO 2768-m for 6-30 mm features) on the stop face, 0.115 mm, over the
+    joints' pulley radii (62.5 and 40.85 mm, ``defines.h``) and directly on the insertion axis;
+    ``repeatability`` = 5 um of contact scatter over the same radii. The hand-made
+    ``+ 2.5 * M_PI / 180`` in ELBOW_MAX_ANGLE shows stop positions are corrected empirically.
+    """
+
+    name: ClassVar[str] = "registration_offset"
+    enabled: bool = False
+    offset: np.ndarray = field(default_factory=lambda: np.array([0.115 / 62.5, 0.115 / 40.85, 0.115e-3]))
+    repeatability: np.ndarray = field(default_factory=lambda: np.array([5e-3 / 62.5, 5e-3 / 40.85, 5e-6]))
+
+    def __post_init__(self):
+        object.__setattr__(self, "offset", _vector(self.offset, 3, "offset", nonnegative=False))
+        object.__setattr__(self, "repeatability", _vector(self.repeatability, 3, "repeatability"))
+
+
 EFFECT_TYPES: tuple[type[Effect], ...] = (
     CableStretch,
     GravityStretch,
@@ -375,6 +570,11 @@ EFFECT_TYPES: tuple[type[Effect], ...] = (
     Quantization,
     Noise,
     CapstanRunout,
+    MotorFriction,
+    CapstanFriction,
+    GravityModelError,
+    TransmissionError,
+    RegistrationOffset,
 )
 """Every effect the virtual RAVEN-II implements, in the order the engine applies them."""
 
