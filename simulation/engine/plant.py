@@ -36,7 +36,8 @@ from simulation.engine.controller import tool_joints_from_motors
 from simulation.engine.tables import (
     E_BACKLASH, E_CAPSTAN, E_COULOMB, E_DRIFT, E_GRAVITY, E_HYSTERESIS, E_MOTORFRICTION, E_RUNOUT, E_VISCOUS,
     R_BL, R_BM, R_CAPSTAN, R_DAMP, R_DC, R_DK, R_DLG, R_DVREF, R_FC, R_FV, R_GEAR, R_GSCALE, R_HB, R_HG, R_HK,
-    R_JM, R_K1, R_K3, R_KTOOL, R_MFC, R_MLOSS, R_RUNOUT, R_STOP_HI, R_STOP_LO, R_VC, X_DOSE, X_MF, X_PB, X_Q,
+    R_JM, R_K1, R_K3, R_KTOOL, R_MFC, R_MLOSS, R_RUNOUT, R_STOP_HI, R_STOP_LO, R_TOOL_FC, R_TOOL_FV, R_VC, X_DOSE,
+    X_MF, X_PB, X_Q,
     X_QD, X_QF, X_QT, X_SF, X_U, X_UD, X_Z,
 )
 from simulation.model.laws import bouc_wen_rate, fatigue_rate, friction_force, play, stiffness_tension
@@ -384,8 +385,8 @@ def tool_step(plant, table, flags, tr, h, gb, tsign, tau_u, tool_load):
         # the instrument's own friction on the tool joint (always on), implicit as for the
         # positioning joints
         coupled = plant[X_UD + j] - tool_rate
-        rate = (free - coupled) / (1.0 + h * table[R_FV, j] / inertia)
-        impulse = h * table[R_FC, j] / inertia
+        rate = (free - coupled) / (1.0 + h * table[R_TOOL_FV, j] / inertia)
+        impulse = h * table[R_TOOL_FC, j] / inertia
         if abs(rate) <= impulse:
             rate = 0.0
         else:

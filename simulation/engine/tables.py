@@ -15,19 +15,42 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simulation.model import layout
 from simulation.model.constants import coupling_matrix
 from simulation.model.effects import EFFECT_NAMES
 from simulation.model.parameters import RavenParameters
 
 # Rows of the per-DOF parameter table (columns: the seven DOFs; positioning-only rows use 0..2).
+# Controller, sensor and tool rows, the engine's own:
 R_TR, R_GEAR, R_TPA, R_DPA, R_DACMAX, R_KP, R_KD, R_KI, R_JM, R_BM = range(10)
 R_HOMEDAC, R_HOMESPEED, R_STOP_LO, R_STOP_HI, R_HOMEPOSE, R_REGPOS = range(10, 16)
-R_K1, R_K3, R_DAMP, R_KTOOL, R_GSCALE, R_FC, R_VC, R_FV = range(16, 24)
-R_BL, R_HK, R_HB, R_HG = range(24, 28)
-R_DK, R_DC, R_DLG, R_DVREF = range(28, 32)
-R_HREP, R_TRUTHRES, R_TRUTHNOISE, R_INOISE, R_RUNOUT = range(32, 37)
-R_MFC, R_MLOSS, R_CAPSTAN, R_GERR, R_ROFF, R_RREP = range(37, 43)
-N_ROWS = 43
+R_KTOOL, R_TOOL_FC, R_TOOL_FV = range(16, 19)
+R_HREP, R_TRUTHRES, R_TRUTHNOISE, R_INOISE, R_MFC, R_MLOSS = range(19, 25)
+# The motor-cable-link model's rows: the block of simulation.model.layout, in its row order
+# (positioning columns 0..2; the rows of an effect that is off are zero, and every read of them
+# is behind the effect's switch).
+R_MODEL = 25
+R_K1 = R_MODEL + layout.STIFFNESS
+R_K3 = R_MODEL + layout.HARDENING
+R_DAMP = R_MODEL + layout.DAMPING
+R_GSCALE = R_MODEL + layout.LOAD_SCALE
+R_FC = R_MODEL + layout.COULOMB
+R_VC = R_MODEL + layout.VELOCITY_SCALE
+R_FV = R_MODEL + layout.VISCOUS
+R_BL = R_MODEL + layout.BACKLASH
+R_HK = R_MODEL + layout.HYSTERESIS_STIFFNESS
+R_HB = R_MODEL + layout.HYSTERESIS_BETA
+R_HG = R_MODEL + layout.HYSTERESIS_GAMMA
+R_DK = R_MODEL + layout.STIFFNESS_LOSS
+R_DC = R_MODEL + layout.CREEP_RATE
+R_DLG = R_MODEL + layout.PAYLOAD_GAIN
+R_DVREF = R_MODEL + layout.REFERENCE_SPEED
+R_RUNOUT = R_MODEL + layout.RUNOUT
+R_CAPSTAN = R_MODEL + layout.CAPSTAN_COEFFICIENT
+R_GERR = R_MODEL + layout.GRAVITY_MODEL_ERROR
+R_ROFF = R_MODEL + layout.REGISTRATION_OFFSET
+R_RREP = R_MODEL + layout.REGISTRATION_REPEATABILITY
+N_ROWS = R_MODEL + layout.N_ROWS
 
 # Effect switches.
 (E_STRETCH, E_GRAVITY, E_COUPLING, E_COULOMB, E_VISCOUS, E_BACKLASH, E_HYSTERESIS, E_DRIFT,
@@ -129,30 +152,10 @@ def build_tables(params: RavenParameters, robot, payload_kg: float = 0.0, subste
     t[R_HOMEPOSE] = c.home_pose
     t[R_REGPOS, :3] = c.hard_stop
 
-    stretch = params.effect("cable_stretch")
-    t[R_K1, :3] = stretch.stiffness
-    t[R_K3, :3] = stretch.hardening
-    t[R_DAMP, :3] = stretch.damping
+    t[R_MODEL:, :3] = layout.joint_table(params)
     t[R_KTOOL, 3:] = c.tool_cable_stiffness
-    t[R_GSCALE, :3] = params.effect("gravity_stretch").load_scale
-    coulomb = params.effect("coulomb_friction")
-    t[R_FC, :3] = coulomb.force
-    t[R_FC, 3:] = c.tool_friction
-    t[R_VC, :3] = coulomb.velocity_scale
-    t[R_VC, 3:] = 0.05
-    viscous = params.effect("viscous_friction")
-    t[R_FV, :3] = viscous.coefficient
-    t[R_FV, 3:] = c.tool_viscous
-    t[R_BL, :3] = params.effect("backlash").half_width
-    hyst = params.effect("hysteresis")
-    t[R_HK, :3] = hyst.stiffness
-    t[R_HB, :3] = hyst.beta
-    t[R_HG, :3] = hyst.gamma
-    drift = params.effect("drift")
-    t[R_DK, :3] = drift.stiffness_loss
-    t[R_DC, :3] = drift.creep_rate
-    t[R_DLG, :3] = drift.payload_gain
-    t[R_DVREF, :3] = drift.reference_speed
+    t[R_TOOL_FC, 3:] = c.tool_friction
+    t[R_TOOL_FV, 3:] = c.tool_viscous
     homing = params.effect("homing_offset")
     t[R_HREP, :3] = homing.repeatability
     t[R_HREP, 3:] = homing.tool_repeatability
@@ -161,15 +164,9 @@ def build_tables(params: RavenParameters, robot, payload_kg: float = 0.0, subste
     noise = params.effect("noise")
     t[R_TRUTHNOISE, :3] = noise.truth_noise
     t[R_INOISE] = noise.current_noise
-    t[R_RUNOUT, :3] = params.effect("capstan_runout").amplitude
     motor = params.effect("motor_friction")
     t[R_MFC] = motor.coulomb
     t[R_MLOSS] = motor.gearbox_loss
-    t[R_CAPSTAN, :3] = params.effect("capstan_friction").coefficient
-    t[R_GERR, :3] = params.effect("gravity_model_error").scale_error
-    registration = params.effect("registration_offset")
-    t[R_ROFF, :3] = registration.offset
-    t[R_RREP, :3] = registration.repeatability
 
     flags = np.array([1 if params.is_enabled(n) else 0 for n in EFFECT_NAMES], dtype=np.int64)
     scalars = np.zeros(N_SCALARS)
@@ -178,7 +175,7 @@ def build_tables(params: RavenParameters, robot, payload_kg: float = 0.0, subste
     scalars[S_TOOLGB] = c.tool_gb_ratio
     scalars[S_TOOLSIGN] = c.tool_sign
     scalars[S_CPR] = quant.motor_counts_per_rev if quant.enabled else c.encoder_counts_per_rev
-    scalars[S_TIMESCALE] = drift.time_scale
+    scalars[S_TIMESCALE] = params.effect("drift").time_scale
     scalars[S_SETTLE] = round(c.settle_time / c.servo_period)
     scalars[S_PAYLOAD] = payload_kg
 

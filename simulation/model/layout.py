@@ -4,8 +4,9 @@ Compiled loops read the model's parameters from a ``(N_ROWS, 3)`` float table: o
 parameter, one column per positioning joint (``shoulder``, ``elbow``, ``z_ins``; rad, rad, m).
 :func:`joint_table` packs it from a :class:`~simulation.model.parameters.RavenParameters` and the
 session's joint offsets; the row constants (``STIFFNESS``, ``HARDENING``, ...) index it. The UKF's
-:class:`~estimators.ukf.model.CableModel` holds this table; the engine's plant rows map onto the
-same names.
+:class:`~estimators.ukf.model.CableModel` holds this table, and the engine's table
+(:mod:`simulation.engine.tables`) embeds it as one block, so both read a parameter from the same
+named row.
 
 A row of an effect that is off is zero (the effect contributes nothing), except the rows that
 divide (``hardening``, ``velocity_scale``, ``reference_speed``): they keep their values so a table
@@ -61,6 +62,10 @@ ROWS = (
     Row("payload_gain", "drift", "payload_gain", unit="1/kg"),
     Row("reference_speed", "drift", "reference_speed", kept_when_off=True, unit="rad/s, rad/s, m/s"),
     Row("runout", "capstan_runout", "amplitude", unit="rad, rad, m"),
+    Row("capstan_coefficient", "capstan_friction", "coefficient", unit="1"),
+    Row("gravity_model_error", "gravity_model_error", "scale_error", unit="1"),
+    Row("registration_offset", "registration_offset", "offset", unit="rad, rad, m"),
+    Row("registration_repeatability", "registration_offset", "repeatability", unit="rad, rad, m"),
     Row("offset", "", "", unit="rad, rad, m"),
     Row("motor_inertia", "", "", unit="kg m^2, kg m^2, kg"),
     Row("motor_damping", "", "", unit="N m s/rad, N m s/rad, N s/m"),
@@ -72,7 +77,8 @@ COLUMN_NAMES = POSITIONING_NAMES
 N_ROWS = len(ROWS)
 
 (STIFFNESS, HARDENING, DAMPING, LOAD_SCALE, COULOMB, VELOCITY_SCALE, VISCOUS, BACKLASH, HYSTERESIS_STIFFNESS,
- HYSTERESIS_BETA, HYSTERESIS_GAMMA, STIFFNESS_LOSS, CREEP_RATE, PAYLOAD_GAIN, REFERENCE_SPEED, RUNOUT, OFFSET,
+ HYSTERESIS_BETA, HYSTERESIS_GAMMA, STIFFNESS_LOSS, CREEP_RATE, PAYLOAD_GAIN, REFERENCE_SPEED, RUNOUT,
+ CAPSTAN_COEFFICIENT, GRAVITY_MODEL_ERROR, REGISTRATION_OFFSET, REGISTRATION_REPEATABILITY, OFFSET,
  MOTOR_INERTIA, MOTOR_DAMPING) = range(N_ROWS)
 
 
