@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from kinematics import RavenII
-from simulation.engine import loop, tables
+from simulation.engine import tables
 from simulation.engine.controller import register_encoders, servo_control
 from simulation.engine.sensors import read_motor_encoders
 from simulation.engine.tables import C_INT, C_OFF, C_POWERON, MODE_TRAJECTORY, X_U, build_tables
@@ -32,7 +32,7 @@ def test_one_servo_tick_applies_the_pd_law_with_gravity_compensation(arm):
     mpos = rng.normal(0.0, 1.0, 7)
     mvel = rng.normal(0.0, 1.0, 7)
     jpos = c.home_pose + rng.normal(0.0, 0.01, 7)
-    ctrl = np.zeros(loop.N_CTRL)
+    ctrl = np.zeros(tables.N_CTRL)
     out = {name: np.zeros(7) for name in ("mpos_d", "mvel_d", "tau_d", "dac", "tau_applied", "tau_u")}
     servo_control(MODE_TRAJECTORY, ctrl, t.table, t.flags, tr, np.linalg.inv(t.coupling_nominal),
                   c.tool_gb_ratio, c.tool_sign, c.servo_period, t.gravity_controller, qd_des, vd_des,
@@ -65,9 +65,9 @@ def test_homing_registration_reads_the_hard_stops_at_the_motors_it_finds_there()
     c = params.constants
     tr = np.asarray(c.transmission_ratio, dtype=float)
     counts_per_rad = t.scalars[tables.S_CPR] / (2.0 * np.pi)
-    plant = np.zeros(loop.N_PLANT)
+    plant = np.zeros(tables.N_PLANT)
     plant[X_U:X_U + 7] = np.random.default_rng(1).normal(0.0, 0.3, 7)
-    ctrl = np.zeros(loop.N_CTRL)
+    ctrl = np.zeros(tables.N_CTRL)
     ctrl[C_POWERON:C_POWERON + 7] = [1200.0, -300.0, 45.0, 7.0, -8.0, 9.0, 10.0]
     ctrl[C_OFF:C_OFF + 7] = ctrl[C_POWERON:C_POWERON + 7]
     enc, mpos, mvel = np.zeros(7), np.zeros(7), np.zeros(7)
@@ -98,10 +98,3 @@ def test_tables_refuse_a_zero_truth_resolution_when_quantizing(arm):
     with pytest.raises(ValueError, match="truth_resolution"):
         build_tables(params.with_effect(zero), robot)
     build_tables(params.with_effect(zero.with_enabled(False)), robot)
-
-
-def test_the_loop_module_still_offers_the_table_layout_it_runs_on():
-    assert loop.build_tables is tables.build_tables
-    assert loop.EngineTables is tables.EngineTables
-    for name in ("N_PLANT", "N_CTRL", "X_U", "X_Q", "C_OFF", "C_HOMESTATE", "MODE_HOMING", "MODE_TRAJECTORY"):
-        assert getattr(loop, name) == getattr(tables, name)

@@ -47,10 +47,8 @@ from simulation.engine.plant import (
 )
 from simulation.engine.sensors import read_joint_encoders, read_motor_encoders
 from simulation.engine.tables import (
-    C_HOLD, C_HOMESTART, C_HOMESTATE, C_INT, C_OFF, C_POWERON, C_PREV, C_READY, C_SEQ, C_SETTLE,
-    E_STRETCH, MODE_HOMING, MODE_TRAJECTORY, N_CTRL, N_PLANT, N_ROWS, N_SCALARS, R_TR, S_CPR, S_DT, S_NSUB,
-    S_PAYLOAD, S_TIMESCALE, S_TOOLGB, S_TOOLSIGN, X_DOSE, X_MF, X_PB, X_Q, X_QD, X_QF, X_QT, X_SF, X_U,
-    X_UD, X_Z, EngineTables, build_tables,
+    C_OFF, C_SEQ, E_STRETCH, MODE_HOMING, MODE_TRAJECTORY, R_TR, S_CPR, S_DT, S_NSUB, S_PAYLOAD, S_TIMESCALE,
+    S_TOOLGB, S_TOOLSIGN, X_DOSE, X_Q, X_QT, X_Z,
 )
 
 __all__ = [
@@ -58,11 +56,6 @@ __all__ = [
     "LOG_MPOS", "LOG_MVEL", "LOG_JPOS", "LOG_JVEL", "LOG_MPOSD", "LOG_JPOSD", "LOG_TAU", "LOG_ENCOFF",
     "LOG_Q", "LOG_QT", "LOG_TENSION", "LOG_STRETCH", "LOG_Z", "LOG_DOSE", "LOG_TAUAPPLIED",
     "LOG_GRAVITY", "N_LOG", "ILOG_ENC", "ILOG_DAC", "ILOG_SEQ", "N_ILOG",
-    # defined in simulation.engine.tables
-    "EngineTables", "build_tables", "N_ROWS", "N_SCALARS", "MODE_TRAJECTORY", "MODE_HOMING",
-    "X_U", "X_UD", "X_Q", "X_QD", "X_PB", "X_Z", "X_DOSE", "X_QT", "X_SF", "X_QF", "X_MF", "N_PLANT",
-    "C_PREV", "C_INT", "C_OFF", "C_POWERON", "C_HOLD", "C_HOMESTATE", "C_HOMESTART", "C_SETTLE",
-    "C_SEQ", "C_READY", "N_CTRL",
 ]
 
 # Logged channels (columns of the float log).

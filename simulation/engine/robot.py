@@ -8,7 +8,8 @@ import numpy as np
 
 from kinematics import RavenII
 
-from simulation.engine import loop as E
+from simulation.engine import loop
+from simulation.engine import tables as engine_tables
 from simulation.model.laws import cable_stretch_curve
 from simulation.model.parameters import RavenParameters
 from simulation.recordings.recording import Recording
@@ -100,14 +101,14 @@ class VirtualRaven:
         self.truth_rate = float(truth_rate)
         self.substeps = int(substeps)
         self._rng = np.random.default_rng(seed)
-        self._tables: dict[float, E.EngineTables] = {}
+        self._tables: dict[float, engine_tables.EngineTables] = {}
         self.payload_kg = 0.0
         self.set_payload(payload_kg)
         self.tick = 0
         self.homing_count = 0
         self._hours_origin = 0.0
-        self.plant = np.zeros(E.N_PLANT)
-        self.ctrl = np.zeros(E.N_CTRL)
+        self.plant = np.zeros(engine_tables.N_PLANT)
+        self.ctrl = np.zeros(engine_tables.N_CTRL)
         self._power_on()
 
     # ---- state ----------------------------------------------------------------------------
@@ -128,10 +129,10 @@ class VirtualRaven:
             raise ValueError(f"payload_kg must be a non-negative number, got {payload_kg!r}")
         self.payload_kg = payload
 
-    def tables(self) -> E.EngineTables:
+    def tables(self) -> engine_tables.EngineTables:
         key = round(self.payload_kg, 9)
         if key not in self._tables:
-            self._tables[key] = E.build_tables(self.params, self.robot, self.payload_kg, self.substeps)
+            self._tables[key] = engine_tables.build_tables(self.params, self.robot, self.payload_kg, self.substeps)
         return self._tables[key]
 
     def _power_on(self) -> None:
@@ -153,23 +154,23 @@ class VirtualRaven:
         m_ins = u[2] * c.transmission_ratio[2]
         signs = np.array([1.0, 1.0, -1.0, 1.0]) * c.tool_sign
         u[3:] = (c.transmission_ratio[3:] * home[3:] + signs * m_ins / c.tool_gb_ratio) / c.transmission_ratio[3:]
-        self.plant[E.X_U:E.X_U + 7] = u
-        self.plant[E.X_Q:E.X_Q + 3] = home[:3]
-        self.plant[E.X_PB:E.X_PB + 3] = home[:3] + stretch
-        self.plant[E.X_SF:E.X_SF + 3] = stretch
-        self.plant[E.X_QF:E.X_QF + 3] = home[:3]
-        self.plant[E.X_QT:E.X_QT + 4] = home[3:]
+        self.plant[engine_tables.X_U:engine_tables.X_U + 7] = u
+        self.plant[engine_tables.X_Q:engine_tables.X_Q + 3] = home[:3]
+        self.plant[engine_tables.X_PB:engine_tables.X_PB + 3] = home[:3] + stretch
+        self.plant[engine_tables.X_SF:engine_tables.X_SF + 3] = stretch
+        self.plant[engine_tables.X_QF:engine_tables.X_QF + 3] = home[:3]
+        self.plant[engine_tables.X_QT:engine_tables.X_QT + 4] = home[3:]
         power_on = self._rng.integers(-20000, 20000, size=7).astype(float)
-        self.ctrl[E.C_POWERON:E.C_POWERON + 7] = power_on
-        self.ctrl[E.C_OFF:E.C_OFF + 7] = power_on
+        self.ctrl[engine_tables.C_POWERON:engine_tables.C_POWERON + 7] = power_on
+        self.ctrl[engine_tables.C_OFF:engine_tables.C_OFF + 7] = power_on
 
     def true_joints(self) -> np.ndarray:
         """Current true positions of shoulder (rad), elbow (rad), insertion (m)."""
-        return self.plant[E.X_Q:E.X_Q + 3].copy()
+        return self.plant[engine_tables.X_Q:engine_tables.X_Q + 3].copy()
 
     def fatigue_dose(self) -> np.ndarray:
         """Accumulated cable fatigue dose of the positioning joints (equivalent hours)."""
-        return self.plant[E.X_DOSE:E.X_DOSE + 3].copy()
+        return self.plant[engine_tables.X_DOSE:engine_tables.X_DOSE + 3].copy()
 
     def start_operating_clock(self) -> None:
         """Make ``operating_hours`` labels count from now."""
@@ -189,12 +190,12 @@ class VirtualRaven:
         tables = self.tables()
         log_ticks = self._record_ticks(self.tick, n_ticks, self.log_rate)
         truth_ticks = self._record_ticks(self.tick, n_ticks, self.truth_rate)
-        log_f = np.zeros((log_ticks.size, E.N_LOG))
-        log_i = np.zeros((log_ticks.size, E.N_ILOG), dtype=np.int64)
+        log_f = np.zeros((log_ticks.size, loop.N_LOG))
+        log_i = np.zeros((log_ticks.size, loop.N_ILOG), dtype=np.int64)
         log_mode = np.zeros(log_ticks.size, dtype=np.int64)
         truth = np.zeros((truth_ticks.size, 3))
         seed = int(self._rng.integers(0, 2**31 - 1))
-        done, n_log, n_truth = E.servo_loop(
+        done, n_log, n_truth = loop.servo_loop(
             mode, self.tick, n_ticks, q, qd, rate, self.time,
             tables.table, tables.flags, tables.scalars, tables.coupling_nominal, tables.coupling_true,
             tables.gravity_plant, tables.gravity_controller, self.plant, self.ctrl, seed,
@@ -232,7 +233,7 @@ class VirtualRaven:
         """
         q, qd, rate = _check_motion(motion)
         n_ticks = int(round((q.shape[0] - 1) / rate / self.dt)) + 1
-        recording = self._run_loop(E.MODE_TRAJECTORY, n_ticks, q, qd, rate, segment)
+        recording = self._run_loop(engine_tables.MODE_TRAJECTORY, n_ticks, q, qd, rate, segment)
         self._last_desired = q[-1].copy()
         return recording
 
@@ -265,15 +266,15 @@ class VirtualRaven:
         controller's threshold, waits for the cables to settle, registers the encoders
         (``homing.cpp``), and moves to the home pose in 2.5 s. Returns the recording of it all.
         """
-        self.ctrl[E.C_HOMESTATE:E.C_HOMESTATE + 3] = -1.0
+        self.ctrl[engine_tables.C_HOMESTATE:engine_tables.C_HOMESTATE + 3] = -1.0
         n_ticks = int(round(max_duration / self.dt))
         dummy = np.zeros((2, 7))
-        search = self._run_loop(E.MODE_HOMING, n_ticks, dummy, dummy, 1.0, "homing")
-        if self.ctrl[E.C_HOMESTATE:E.C_HOMESTATE + 3].min() < 1.0:
+        search = self._run_loop(engine_tables.MODE_HOMING, n_ticks, dummy, dummy, 1.0, "homing")
+        if self.ctrl[engine_tables.C_HOMESTATE:engine_tables.C_HOMESTATE + 3].min() < 1.0:
             raise RuntimeError(f"homing did not reach every hard stop within {max_duration} s")
         self.homing_count += 1
         c = self.params.constants
-        start = self.ctrl[E.C_HOLD:E.C_HOLD + 7].copy()
+        start = self.ctrl[engine_tables.C_HOLD:engine_tables.C_HOLD + 7].copy()
         start[:3] = c.hard_stop
         move = self.run(smooth_move(start, c.home_pose, 2.5), "homing")
         self._last_desired = c.home_pose.copy()

@@ -12,31 +12,32 @@ from typing import Mapping
 
 import numpy as np
 
-from simulation.engine import loop as E
+from simulation.engine import loop
+from simulation.engine import tables as engine_tables
 from simulation.model.constants import ARM_SERIAL, SLOT_OF_DOF, RavenConstants
 
-RUNLEVEL_OF_MODE = {E.MODE_TRAJECTORY: 3, E.MODE_HOMING: 1}
+RUNLEVEL_OF_MODE = {engine_tables.MODE_TRAJECTORY: 3, engine_tables.MODE_HOMING: 1}
 """``ravenstate.runlevel`` of each loop mode: RL_PEDAL_DN (3) when operating, RL_INIT (1) while homing."""
-SUBLEVEL_OF_MODE = {E.MODE_TRAJECTORY: 0, E.MODE_HOMING: 3}
+SUBLEVEL_OF_MODE = {engine_tables.MODE_TRAJECTORY: 0, engine_tables.MODE_HOMING: 3}
 """``ravenstate.sublevel``: SL_AUTO_INIT (3) while homing."""
 
 CHANNELS: dict[str, slice] = {
-    "mpos": slice(E.LOG_MPOS, E.LOG_MPOS + 7),
-    "mvel": slice(E.LOG_MVEL, E.LOG_MVEL + 7),
-    "jpos": slice(E.LOG_JPOS, E.LOG_JPOS + 7),
-    "jvel": slice(E.LOG_JVEL, E.LOG_JVEL + 7),
-    "mpos_d": slice(E.LOG_MPOSD, E.LOG_MPOSD + 7),
-    "jpos_d": slice(E.LOG_JPOSD, E.LOG_JPOSD + 7),
-    "tau": slice(E.LOG_TAU, E.LOG_TAU + 7),
-    "encoffsets": slice(E.LOG_ENCOFF, E.LOG_ENCOFF + 7),
-    "true_joints": slice(E.LOG_Q, E.LOG_Q + 3),
-    "true_tool_joints": slice(E.LOG_QT, E.LOG_QT + 4),
-    "cable_tension": slice(E.LOG_TENSION, E.LOG_TENSION + 3),
-    "cable_stretch": slice(E.LOG_STRETCH, E.LOG_STRETCH + 3),
-    "hysteresis_state": slice(E.LOG_Z, E.LOG_Z + 3),
-    "fatigue_dose": slice(E.LOG_DOSE, E.LOG_DOSE + 3),
-    "applied_torque": slice(E.LOG_TAUAPPLIED, E.LOG_TAUAPPLIED + 7),
-    "gravity_torque": slice(E.LOG_GRAVITY, E.LOG_GRAVITY + 3),
+    "mpos": slice(loop.LOG_MPOS, loop.LOG_MPOS + 7),
+    "mvel": slice(loop.LOG_MVEL, loop.LOG_MVEL + 7),
+    "jpos": slice(loop.LOG_JPOS, loop.LOG_JPOS + 7),
+    "jvel": slice(loop.LOG_JVEL, loop.LOG_JVEL + 7),
+    "mpos_d": slice(loop.LOG_MPOSD, loop.LOG_MPOSD + 7),
+    "jpos_d": slice(loop.LOG_JPOSD, loop.LOG_JPOSD + 7),
+    "tau": slice(loop.LOG_TAU, loop.LOG_TAU + 7),
+    "encoffsets": slice(loop.LOG_ENCOFF, loop.LOG_ENCOFF + 7),
+    "true_joints": slice(loop.LOG_Q, loop.LOG_Q + 3),
+    "true_tool_joints": slice(loop.LOG_QT, loop.LOG_QT + 4),
+    "cable_tension": slice(loop.LOG_TENSION, loop.LOG_TENSION + 3),
+    "cable_stretch": slice(loop.LOG_STRETCH, loop.LOG_STRETCH + 3),
+    "hysteresis_state": slice(loop.LOG_Z, loop.LOG_Z + 3),
+    "fatigue_dose": slice(loop.LOG_DOSE, loop.LOG_DOSE + 3),
+    "applied_torque": slice(loop.LOG_TAUAPPLIED, loop.LOG_TAUAPPLIED + 7),
+    "gravity_torque": slice(loop.LOG_GRAVITY, loop.LOG_GRAVITY + 3),
 }
 """Float channels of a recording (simulator DOF order, SI). ``tau`` is the commanded motor torque
 at the gearbox output (N m), as RAVEN-II publishes it; ``cable_tension`` is in joint units."""
@@ -86,15 +87,15 @@ class Recording:
 
     @property
     def encoder_counts(self) -> np.ndarray:
-        return self.counts[:, E.ILOG_ENC:E.ILOG_ENC + 7]
+        return self.counts[:, loop.ILOG_ENC:loop.ILOG_ENC + 7]
 
     @property
     def dac_values(self) -> np.ndarray:
-        return self.counts[:, E.ILOG_DAC:E.ILOG_DAC + 7]
+        return self.counts[:, loop.ILOG_DAC:loop.ILOG_DAC + 7]
 
     @property
     def sequence(self) -> np.ndarray:
-        return self.counts[:, E.ILOG_SEQ]
+        return self.counts[:, loop.ILOG_SEQ]
 
     def select(self, mask: np.ndarray) -> "Recording":
         """State samples where ``mask`` holds, with the truth restricted to their time span."""
@@ -120,7 +121,7 @@ class Recording:
 
     def operating(self) -> "Recording":
         """Only the samples taken while operating (homing excluded)."""
-        return self.select(self.mode == E.MODE_TRAJECTORY)
+        return self.select(self.mode == engine_tables.MODE_TRAJECTORY)
 
     def segment(self, name: str) -> "Recording":
         """Only the samples of the scenario part called ``name``."""
