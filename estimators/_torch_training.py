@@ -70,6 +70,13 @@ class EarlyStopping:
             )
         return n_samples - n_validation
 
+    def min_samples(self) -> int:
+        """Fewest rows that leave at least one training and one validation row."""
+        n_samples = 2
+        while n_samples - math.ceil(self.validation_fraction * n_samples) < 1:
+            n_samples += 1
+        return n_samples
+
 
 @dataclass(frozen=True)
 class TrainingSettings:
