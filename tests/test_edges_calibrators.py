@@ -6,7 +6,9 @@ fewer rows than its window never sees one real window; a network or a Gaussian p
 sample sees only constant features. Each is refused with a one-line ValueError that names the
 calibrator, the number of samples it needs and why, and the number it got. The counts are
 checked here against independent computations (scikit-learn's `PolynomialFeatures` for the
-monomials), one below and at the boundary.
+monomials), one below and at the boundary. The last test guards the network trainer's direct
+call of torch's fused Adam kernel, which must update the weights bit for bit as
+`torch.optim.Adam` does.
 """
 
 from __future__ import annotations
@@ -167,3 +169,29 @@ def test_a_window_longer_than_the_data_is_refused(make):
                        r"rows; got 20 samples\.$"):
         make(21).fit(X, y)
     make(20).fit(X, y)  # one full window is enough
+
+
+def test_the_trainers_direct_adam_step_is_torchs_fused_adam_bit_for_bit():
+    # The network trainer calls torch's fused Adam kernel directly (no optimizer-class overhead);
+    # a torch release that changed the kernel's state or arguments would change the trained
+    # weights silently, so the update is compared bit for bit with torch.optim.Adam's.
+    torch = pytest.importorskip("torch")
+    from estimators._torch_training import MLP_ADAM_EPSILON, FusedAdam
+
+    rng = np.random.default_rng(7)
+    start = rng.normal(size=300)
+    reference = torch.tensor(start.copy())
+    reference.grad = torch.zeros_like(reference)
+    optimizer = torch.optim.Adam([reference], lr=1e-3, betas=(0.9, 0.999), eps=MLP_ADAM_EPSILON,
+                                 fused=True)
+    mine, gradient = torch.tensor(start.copy()), torch.zeros(300, dtype=torch.float64)
+    direct = FusedAdam(mine, gradient, 1e-3, 0.9, 0.999, MLP_ADAM_EPSILON)
+    with torch.no_grad():
+        for _ in range(20):
+            step_gradient = torch.from_numpy(rng.normal(size=300) * rng.uniform(1e-3, 10))
+            reference.grad.copy_(step_gradient)
+            gradient.copy_(step_gradient)
+            optimizer.step()
+            direct.step()
+    assert torch.equal(mine, reference)
+    assert not np.array_equal(mine.numpy(), start)
