@@ -4,8 +4,9 @@ Each calibrator is default-constructed, except that the networks train briefly o
 (`max_epochs` low, small hidden sizes for the LSTM and the forest) so that the ~60 checks per
 estimator stay fast, and that the polynomial and window-linear models get a small ridge penalty:
 some checks fit on 11 to 40 samples of 5 to 10 features, fewer than the 21 to 66 parameters per
-target of those models, which refuse such an undetermined least-squares fit without a penalty. The window calibrators are expected to fail exactly the two checks that
-assume rows are independent samples; every other check must pass.
+target of those models, which refuse such an undetermined least-squares fit without a penalty.
+The window calibrators are expected to fail exactly the two checks that assume rows are
+independent samples; every other check must pass.
 """
 
 from __future__ import annotations
