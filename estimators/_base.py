@@ -8,8 +8,10 @@ learns y end-to-end, so a default-constructed calibrator is an ordinary scikit-l
 
 Subclasses implement three hooks on the *correction* (the error in error mode, y otherwise):
 `_fit_correction`, `_predict_correction` and `_build_realtime`, plus `_fitted_arrays` /
-`_restore_fitted_arrays` for persistence. Everything else, including input validation with
-scikit-learn's messages, lives here once.
+`_restore_fitted_arrays` for persistence, and `_min_samples`, the fewest rows their model can be
+fitted on (a least-squares fit needs as many rows as it has parameters, a window model one full
+window). Everything else, including input validation with scikit-learn's messages, lives here
+once.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from estimators._validation import resolve_raw_columns
+from estimators._validation import check_n_samples, resolve_raw_columns
 
 
 class CalibratorBase(RegressorMixin, BaseEstimator):
@@ -54,6 +56,7 @@ class CalibratorBase(RegressorMixin, BaseEstimator):
         self._check_params()
         targets = y.reshape(y.shape[0], -1)
         self.raw_columns_ = resolve_raw_columns(self.raw_columns, X.shape[1], targets.shape[1])
+        check_n_samples(type(self).__name__, X.shape[0], *self._min_samples(X.shape[1]))
         self.n_outputs_ = targets.shape[1]
         self._y_is_1d = y.ndim == 1
         correction = targets if self.raw_columns_ is None else targets - X[:, self.raw_columns_]
@@ -118,6 +121,11 @@ class CalibratorBase(RegressorMixin, BaseEstimator):
 
     def _check_params(self) -> None:
         """Validate hyper-parameters at fit time; subclasses extend."""
+
+    def _min_samples(self, n_features: int) -> tuple[int, str]:
+        """Fewest rows `fit` accepts for X with `n_features` columns, and why (a phrase that
+        follows "needs at least N samples"). Called after `_check_params`."""
+        return 1, "to estimate anything"
 
     def _fit_correction(self, X: np.ndarray, correction: np.ndarray) -> None:
         raise NotImplementedError

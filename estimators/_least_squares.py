@@ -37,3 +37,17 @@ def fit_affine(features: np.ndarray, targets: np.ndarray,
     coef = np.linalg.lstsq(design, rhs, rcond=None)[0]
     intercept = target_mean - feature_mean @ coef
     return coef, intercept
+
+
+def least_squares_min_samples(n_parameters: int, alpha: float, parameters: str) -> tuple[int, str]:
+    """Fewest rows a least-squares calibrator is fitted on, and why (see `CalibratorBase`).
+
+    Without a penalty the fit of `n_parameters` per target (described by `parameters`, e.g.
+    "16 weights and an intercept") is undetermined on fewer rows: the minimum-norm solution
+    would be returned without a word. A ridge penalty (`alpha` > 0) determines it on any
+    number of rows, but on a single row every feature is constant, so 2 are required.
+    """
+    if alpha > 0:
+        return 2, "for a ridge fit (on one sample every feature is constant)"
+    return n_parameters, (f"to determine its {n_parameters} parameters per target ({parameters}) "
+                          "by least squares (with a ridge penalty alpha > 0: 2)")

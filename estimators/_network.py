@@ -68,6 +68,14 @@ class NetworkCalibrator(CalibratorBase):
         check_n_threads(self.n_threads)
         check_verbose(self.verbose)
 
+    def _min_samples(self, n_features):
+        stopping = self._training_settings().early_stopping
+        if stopping is None:
+            return 2, "to train a network (on one sample every feature is constant)"
+        return stopping.min_samples(), (
+            f"to hold out validation_fraction={stopping.validation_fraction} of them for early "
+            "stopping and train on the rest")
+
     def _training_settings(self):
         """The optimizer settings handed to the torch trainer."""
         from estimators._torch_training import EarlyStopping, TrainingSettings

@@ -8,7 +8,8 @@ and runs `run_epochs` (shuffled mini-batches, early stopping, loss history, prog
   (16-100-100-3) and its batch large (1024), so a training step is a few matrix products;
   autograd bookkeeping and per-step allocations would cost as much as the arithmetic. It
   therefore writes the backward pass by hand on preallocated full-batch tensors and uses torch
-  only for the matrix products, the activations and its fused Adam. The losses follow Keras,
+  only for the matrix products, the activations and its fused Adam kernel, called without the
+  optimizer class's per-step overhead (`FusedAdam`). The losses follow Keras,
   the paper's framework: mean squared error over samples and outputs, plus
   ``kernel_l2 * sum(W**2) + kernel_l1 * sum(|W|) + bias_l2 * sum(b**2)`` per layer and
   ``activity_l2 * sum(h**2) / batch`` per hidden layer, added to every batch's loss.
@@ -69,6 +70,13 @@ class EarlyStopping:
                 "leaves none."
             )
         return n_samples - n_validation
+
+    def min_samples(self) -> int:
+        """Fewest rows that leave at least one training and one validation row."""
+        n_samples = 2
+        while n_samples - math.ceil(self.validation_fraction * n_samples) < 1:
+            n_samples += 1
+        return n_samples
 
 
 @dataclass(frozen=True)
@@ -292,8 +300,9 @@ def train_mlp(inputs: np.ndarray, targets: np.ndarray, weights, biases, network:
     Inputs (n_samples, n_features) and targets are standardized; see `train` for the rest.
     The result's `state` is the kept ``(weights, biases)``.
     """
-    # The gradients are written by hand: no autograd bookkeeping during the whole run.
-    with torch.no_grad():
+    # The gradients are written by hand: no autograd bookkeeping (nor version counters, which
+    # inference mode also skips) during the whole run.
+    with torch.inference_mode():
         return train(
             lambda batch_size: _MLPTrainee(weights, biases, network, settings, batch_size),
             inputs, targets, settings, rng, n_threads)
@@ -319,12 +328,50 @@ def _activation_backward_(activation: str, grad: torch.Tensor, output: torch.Ten
         grad.mul_(output > 0)
 
 
+class FusedAdam:
+    """Adam on one flat parameter vector: torch's fused CPU kernel, called directly.
+
+    The update is exactly that of ``torch.optim.Adam([parameters], ..., fused=True)`` (same
+    kernel, same state: a float32 step count and zero-initialized moments), without the
+    per-call bookkeeping of `torch.optim.Optimizer.step` (parameter groups, state lookup,
+    profiler hooks), which cost about a tenth of a small network's training step.
+
+    Parameters
+    ----------
+    parameters : Tensor
+        Flat float64 parameter vector, updated in place.
+    gradient : Tensor
+        Its gradient, same shape, written by the caller before each `step`.
+    learning_rate, beta_1, beta_2, epsilon : float
+        Adam's settings (torch's ``lr``, ``betas`` and ``eps``).
+    """
+
+    def __init__(self, parameters: torch.Tensor, gradient: torch.Tensor, learning_rate: float,
+                 beta_1: float, beta_2: float, epsilon: float):
+        self.parameters, self.gradient = [parameters], [gradient]
+        self.exp_avg = [torch.zeros_like(parameters, memory_format=torch.preserve_format)]
+        self.exp_avg_sq = [torch.zeros_like(parameters, memory_format=torch.preserve_format)]
+        # torch.optim.Adam keeps a fused optimizer's step count as a float32 scalar tensor.
+        self.steps = [torch.zeros((), dtype=torch.float32)]
+        self.learning_rate, self.beta_1, self.beta_2 = learning_rate, beta_1, beta_2
+        self.epsilon = epsilon
+
+    def step(self) -> None:
+        """Update the parameters from the current gradient."""
+        torch._foreach_add_(self.steps, 1)
+        torch._fused_adam_(
+            self.parameters, self.gradient, self.exp_avg, self.exp_avg_sq, [], self.steps,
+            amsgrad=False, lr=self.learning_rate, beta1=self.beta_1, beta2=self.beta_2,
+            weight_decay=0.0, eps=self.epsilon, maximize=False, grad_scale=None,
+            found_inf=None)
+
+
 class _MLPTrainee:
     """Parameters, gradients and activation buffers of a fully connected network in training.
 
-    Its methods expect to run under ``torch.no_grad()``, as in `train_mlp`. All weights and
-    biases are views into one flat parameter vector (and their gradients into one flat
-    gradient vector), so each Adam step is a single fused update.
+    Its methods expect to run without autograd (under ``torch.inference_mode()``, as in
+    `train_mlp`). All weights and biases are views into one flat parameter vector (and their
+    gradients into one flat gradient vector), so each Adam step is a single fused update.
     """
 
     def __init__(self, weights, biases, network: MLPSettings, settings: TrainingSettings,
@@ -334,11 +381,11 @@ class _MLPTrainee:
         sizes = [int(np.prod(shape)) for shape in shapes]
         self.parameters = torch.tensor(
             np.concatenate([np.ravel(a) for a in (*weights, *biases)]), dtype=torch.float64)
-        self.parameters.grad = torch.zeros_like(self.parameters)
+        self.gradient = torch.zeros_like(self.parameters)
         bounds = np.cumsum([0, *sizes])
         values = [self.parameters[a:b].view(shape) for a, b, shape in
                   zip(bounds[:-1], bounds[1:], shapes)]
-        grads = [self.parameters.grad[a:b].view(shape) for a, b, shape in
+        grads = [self.gradient[a:b].view(shape) for a, b, shape in
                  zip(bounds[:-1], bounds[1:], shapes)]
         n_layers = len(weights)
         self.weights, self.biases = values[:n_layers], values[n_layers:]
@@ -346,16 +393,21 @@ class _MLPTrainee:
         widths = [weights[0].shape[0]] + [w.shape[1] for w in weights]
         self.outputs = [torch.empty(batch_size, width, dtype=torch.float64) for width in widths]
         self.grads = [torch.empty(batch_size, width, dtype=torch.float64) for width in widths]
-        self.optimizer = torch.optim.Adam(
-            [self.parameters], lr=settings.learning_rate,
-            betas=(settings.beta_1, settings.beta_2), eps=MLP_ADAM_EPSILON, fused=True)
+        self.batch_targets = torch.empty(batch_size, widths[-1], dtype=torch.float64)
+        self.batch_size = batch_size
+        self.optimizer = FusedAdam(self.parameters, self.gradient, settings.learning_rate,
+                                   settings.beta_1, settings.beta_2, MLP_ADAM_EPSILON)
 
     def step(self, inputs: torch.Tensor, targets: torch.Tensor, index: torch.Tensor) -> float:
         """One Adam step on the rows `index`; returns the batch's summed squared error."""
         network, n_batch = self.network, index.shape[0]
-        outputs = [buffer[:n_batch] for buffer in self.outputs]
-        grads = [buffer[:n_batch] for buffer in self.grads]
+        outputs, grads, batch_targets = self.outputs, self.grads, self.batch_targets
+        if n_batch < self.batch_size:
+            outputs = [buffer[:n_batch] for buffer in outputs]
+            grads = [buffer[:n_batch] for buffer in grads]
+            batch_targets = batch_targets[:n_batch]
         torch.index_select(inputs, 0, index, out=outputs[0])
+        torch.index_select(targets, 0, index, out=batch_targets)
         n_layers = len(self.weights)
         for layer in range(n_layers):
             torch.addmm(self.biases[layer], outputs[layer], self.weights[layer],
@@ -363,19 +415,19 @@ class _MLPTrainee:
             if layer < n_layers - 1:
                 _activate_(network.activation, outputs[layer + 1])
         error = grads[-1]
-        torch.sub(outputs[-1], targets.index_select(0, index), out=error)
+        torch.sub(outputs[-1], batch_targets, out=error)
         squared_error = float(torch.dot(error.view(-1), error.view(-1)))
         error.mul_(2.0 / error.numel())
         for layer in range(n_layers - 1, -1, -1):
             weight, bias = self.weights[layer], self.biases[layer]
             weight_grad, bias_grad = self.weight_grads[layer], self.bias_grads[layer]
+            torch.sum(grads[layer + 1], dim=0, out=bias_grad)
+            if network.bias_l2 > 0:
+                bias_grad.add_(bias, alpha=2.0 * network.bias_l2)
             torch.addmm(weight, outputs[layer].T, grads[layer + 1], beta=2.0 * network.kernel_l2,
                         out=weight_grad)
             if network.kernel_l1 > 0:
                 weight_grad.add_(torch.sign(weight), alpha=network.kernel_l1)
-            torch.sum(grads[layer + 1], dim=0, out=bias_grad)
-            if network.bias_l2 > 0:
-                bias_grad.add_(bias, alpha=2.0 * network.bias_l2)
             if layer > 0:
                 torch.mm(grads[layer + 1], weight.T, out=grads[layer])
                 if network.activity_l2 > 0:

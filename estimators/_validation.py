@@ -36,8 +36,8 @@ def resolve_raw_columns(raw_columns, n_features: int, n_targets: int) -> np.ndar
     TypeError
         If an index is not an integer.
     ValueError
-        If the number of indices differs from the number of targets, or an index lies outside
-        ``[0, n_features)``.
+        If the number of indices differs from the number of targets, an index lies outside
+        ``[0, n_features)``, or an index is repeated.
     """
     if raw_columns is None:
         return None
@@ -64,7 +64,36 @@ def resolve_raw_columns(raw_columns, n_features: int, n_targets: int) -> np.ndar
             f"raw_columns index {int(out_of_range[0])} is out of range for X with "
             f"{n_features} feature(s); indices must lie in [0, {n_features})."
         )
+    unique, counts = np.unique(columns, return_counts=True)
+    if np.any(counts > 1):
+        raise ValueError(
+            f"raw_columns repeats column {int(unique[counts > 1][0])} "
+            f"({[int(c) for c in columns]}); each target needs its own column of X holding "
+            "its uncorrected value."
+        )
     return columns
+
+
+def check_n_samples(estimator: str, n_samples: int, needed: int, reason: str) -> None:
+    """Raise a ValueError if `n_samples` rows are fewer than the `needed` ones.
+
+    Parameters
+    ----------
+    estimator : str
+        Name of the calibrator, for the message.
+    n_samples : int
+        Rows of X given to `fit`.
+    needed : int
+        Smallest number of rows the calibrator can be fitted on.
+    reason : str
+        Why, e.g. "to determine its 17 parameters per target (16 weights and an intercept)".
+    """
+    if n_samples < needed:
+        plural = "" if n_samples == 1 else "s"
+        raise ValueError(
+            f"{estimator} needs at least {needed} samples {reason}; got {n_samples} "
+            f"sample{plural}."
+        )
 
 
 def check_positive_int(value, name: str, minimum: int = 1) -> int:

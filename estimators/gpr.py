@@ -94,6 +94,9 @@ class GPRCalibrator(CalibratorBase):
         check_n_threads(self.n_threads)
         check_verbose(self.verbose)
 
+    def _min_samples(self, n_features):
+        return 2, "to fit a Gaussian process (on one sample every feature is constant)"
+
     def _fit_correction(self, X, correction):
         with threadpool_limits(limits=self.n_threads, user_api="blas"):
             self._fit_subset(X, correction)

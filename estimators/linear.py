@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from estimators._base import CalibratorBase
-from estimators._least_squares import fit_affine
+from estimators._least_squares import fit_affine, least_squares_min_samples
 from estimators.realtime import AffinePredictor
 from estimators._standardization import Standardizer
 from estimators._validation import check_non_negative_float
@@ -38,6 +38,10 @@ class LinearCalibrator(CalibratorBase):
 
     def _check_params(self):
         check_non_negative_float(self.alpha, "alpha")
+
+    def _min_samples(self, n_features):
+        return least_squares_min_samples(n_features + 1, float(self.alpha),
+                                         f"{n_features} weights and an intercept")
 
     def _fit_correction(self, X, correction):
         scaler = Standardizer.fit_inputs(X)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
 from estimators._base import CalibratorBase
-from estimators._least_squares import fit_affine
+from estimators._least_squares import fit_affine, least_squares_min_samples
 from estimators._monomials import MonomialPlan
 from estimators.realtime import MonomialPredictor
 from estimators._standardization import Standardizer
@@ -47,6 +49,14 @@ class PolynomialCalibrator(CalibratorBase):
     def _check_params(self):
         check_positive_int(self.degree, "degree")
         check_non_negative_float(self.alpha, "alpha")
+
+    def _min_samples(self, n_features):
+        degree = int(self.degree)
+        n_monomials = math.comb(n_features + degree, degree) - 1
+        return least_squares_min_samples(
+            n_monomials + 1, float(self.alpha),
+            f"{n_monomials} monomials of degree 1 to {degree} of {n_features} features, and an "
+            "intercept")
 
     def _plan(self) -> MonomialPlan:
         return MonomialPlan.build(self.n_features_in_, int(self.degree))

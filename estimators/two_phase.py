@@ -87,6 +87,11 @@ class TwoPhaseCalibrator(CalibratorBase):
             check_positive_int(self.max_depth, "max_depth")
         check_verbose(self.verbose)
 
+    def _min_samples(self, n_features):
+        network = self._network_template()
+        network._check_params()
+        return network._min_samples(n_features)
+
     def _fit_correction(self, X, correction):
         rng = make_generator(self.random_state)
         template = self._network_template()

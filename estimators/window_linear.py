@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from estimators._base import CalibratorBase
-from estimators._least_squares import fit_affine
+from estimators._least_squares import fit_affine, least_squares_min_samples
 from estimators.realtime import WindowAffinePredictor
 from estimators._standardization import Standardizer
 from estimators._validation import check_non_negative_float, check_positive_int
@@ -51,6 +51,15 @@ class WindowLinearCalibrator(CalibratorBase):
     def _check_params(self):
         check_positive_int(self.window, "window")
         check_non_negative_float(self.alpha, "alpha")
+
+    def _min_samples(self, n_features):
+        window = int(self.window)
+        needed, reason = least_squares_min_samples(
+            window * n_features + 1, float(self.alpha),
+            f"{window} rows x {n_features} weights and an intercept")
+        if window >= needed:
+            return window, f"for one full window of {window} rows"
+        return needed, reason
 
     def _fit_correction(self, X, correction):
         window = int(self.window)

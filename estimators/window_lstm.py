@@ -86,6 +86,13 @@ class WindowLSTMCalibrator(NetworkCalibrator):
         check_non_negative_float(self.weight_l2, "weight_l2")
         super()._check_params()
 
+    def _min_samples(self, n_features):
+        needed, reason = super()._min_samples(n_features)
+        window = int(self.window)
+        if window >= needed:
+            return window, f"for one full window of {window} rows"
+        return needed, reason
+
     def _train_network(self, inputs, targets, rng):
         # torch is needed for training only: prediction and real-time export stay numpy-only.
         from estimators._torch_training import train_lstm

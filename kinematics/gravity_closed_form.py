@@ -29,6 +29,7 @@ from numba import njit
 
 from kinematics.arm_parameters import RavenArmParameters
 from kinematics.dh_batch import LinkConstants, joint_frames
+from kinematics.joint_limits import as_real_array, check_payload
 
 # Layout of the coefficient array (offsets of each block).
 GRAVITY = 0  # 3 values: gravity in the base frame (m/s^2)
@@ -73,9 +74,8 @@ def pack_coefficients(
     """
     if params.dh.prismatic[:3] != (False, False, True):
         raise ValueError("the closed form needs joints J0, J1 revolute and J2 prismatic")
-    if not (np.isfinite(payload_kg) and payload_kg >= 0.0):
-        raise ValueError(f"payload_kg must be finite and >= 0 kg, got {payload_kg!r}")
-    tool = np.asarray(tool_joints, dtype=float)
+    payload_kg = check_payload(payload_kg)
+    tool = as_real_array(tool_joints, "tool_joints", "rad")
     if tool.shape != (3,) or not np.all(np.isfinite(tool)):
         raise ValueError(f"tool_joints must be 3 finite numbers (rad), got {tool_joints!r}")
 

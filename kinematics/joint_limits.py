@@ -5,11 +5,14 @@ elbow (rad), insertion (m), tool roll (rad), wrist (rad) and grasp
 ``(grasp2 - grasp1) / 2`` (rad). The paper's "joints 1, 2, 3" are indices 0, 1, 2.
 Every public kinematics function validates its joint input here, so that a wrong
 shape, a non-finite value or a joint outside its range is reported by name instead
-of producing a silently wrong pose.
+of producing a silently wrong pose. The payload mass is checked here too
+(:func:`check_payload`), and both refuse what numpy would quietly convert: text
+("0.5"), complex numbers (imaginary part dropped) and booleans.
 """
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,6 +85,89 @@ def _format_value(value: float, index: int) -> str:
     return f"{value:.6g} rad ({np.rad2deg(value):.4g} deg)"
 
 
+def _describe_entry(entry) -> str:
+    """What an entry that is not a real number is, for messages."""
+    if isinstance(entry, (str, bytes)):
+        return f"text {entry!r}"
+    if isinstance(entry, bool):
+        return f"a boolean ({entry!r})"
+    if isinstance(entry, complex):
+        return f"a complex number ({entry!r})"
+    if entry is None:
+        return "None"
+    return f"{type(entry).__name__} {entry!r}"
+
+
+def as_real_array(value, name: str, unit: str) -> np.ndarray:
+    """Return `value` as a float64 array if it holds real numbers only, else raise.
+
+    ``np.asarray(value, dtype=float)`` alone would read the text "0.5" as 0.5, drop the
+    imaginary part of a complex number with only a warning and read True as 1.0; a joint
+    coordinate or a mass given that way is a mistake and is reported instead.
+
+    Parameters
+    ----------
+    value : array_like
+        Numbers (Python or numpy integers and floats), of any shape.
+    name : str
+        Name of the argument, used in error messages.
+    unit : str
+        Units expected, used in error messages (e.g. "rad, m" or "kg").
+
+    Raises
+    ------
+    ValueError
+        Naming the argument, the kind of the first entry that is not a real number (text,
+        complex number, boolean, None...), its value and its index.
+    """
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError) as exc:  # ragged nesting
+        raise ValueError(f"{name} must hold real numeric values ({unit}): {exc}") from None
+    if raw.dtype.kind in "iuf":
+        return raw.astype(np.float64, copy=False)
+    flat = raw.reshape(-1)
+    if raw.dtype.kind == "O":
+        is_real = [isinstance(entry, numbers.Real) and not isinstance(entry, (bool, np.bool_))
+                   for entry in flat]
+        if all(is_real):
+            return raw.astype(np.float64)
+        position = is_real.index(False)
+    elif raw.dtype.kind == "c" and np.any(flat.imag != 0):
+        position = int(np.flatnonzero(flat.imag != 0)[0])
+    elif flat.size:
+        position = 0
+    else:
+        raise ValueError(f"{name} must hold real numeric values ({unit}); got an empty array "
+                         f"of {raw.dtype}")
+    entry = flat[position]
+    entry = entry.item() if isinstance(entry, np.generic) else entry
+    where = ""
+    if raw.ndim:
+        where = f" at index {tuple(int(i) for i in np.unravel_index(position, raw.shape))}"
+    raise ValueError(f"{name} must hold real numeric values ({unit}); got "
+                     f"{_describe_entry(entry)}{where}")
+
+
+def check_payload(payload_kg, name: str = "payload_kg") -> float:
+    """Return a payload mass as a float if it is one finite real number >= 0 (kg), else raise.
+
+    Raises
+    ------
+    ValueError
+        If the payload is not a single real number (text, complex, boolean, None, an array),
+        is NaN or infinite, or is negative.
+    """
+    value = as_real_array(payload_kg, name, "kg")
+    if value.ndim != 0:
+        raise ValueError(f"{name} must be one number (a mass in kg), got an array of shape "
+                         f"{value.shape}: {payload_kg!r}")
+    mass = float(value)
+    if not np.isfinite(mass) or mass < 0.0:
+        raise ValueError(f"{name} must be finite and >= 0 kg, got {mass!r}")
+    return mass
+
+
 def as_joint_array(q, n_joints: int = N_JOINTS, name: str = "q") -> tuple[np.ndarray, bool]:
     """Validate joint coordinates and return them as a 2-D float array.
 
@@ -105,13 +191,11 @@ def as_joint_array(q, n_joints: int = N_JOINTS, name: str = "q") -> tuple[np.nda
     Raises
     ------
     ValueError
-        If ``q`` is not numeric, has the wrong shape, or holds NaN or inf; the
-        message names the first offending joint.
+        If ``q`` holds anything but real numbers (text, complex numbers, booleans,
+        None), has the wrong shape, or holds NaN or inf; the message names the
+        first offending joint.
     """
-    try:
-        arr = np.asarray(q, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be numeric joint coordinates: {exc}") from None
+    arr = as_real_array(q, name, "rad, m")
     single = arr.ndim == 1
     if arr.ndim not in (1, 2) or arr.shape[-1] != n_joints:
         raise ValueError(

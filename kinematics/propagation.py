@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinematics.joint_limits import N_JOINTS, as_joint_array
+from kinematics.joint_limits import N_JOINTS, as_joint_array, as_real_array
 
 N_POSITIONING = 3
 """J0..J2 (shoulder, elbow, insertion) position the tool tip; the others orient it."""
@@ -89,7 +89,7 @@ def linearized_tool_tip_error(robot, q, dq, *, check_limits: bool | None = None)
 
 def _as_covariance(covariance, n_configs: int) -> np.ndarray:
     """Validate a joint covariance; return shape (n_configs, k, k) with k in (3, 6)."""
-    cov = np.asarray(covariance, dtype=float)
+    cov = as_real_array(covariance, "joint_covariance", "rad^2, m^2, rad m")
     if cov.ndim == 2:
         cov = np.broadcast_to(cov, (n_configs, *cov.shape))
     if cov.ndim != 3 or cov.shape[1] != cov.shape[2] or cov.shape[1] not in (
@@ -144,7 +144,7 @@ def tool_tip_covariance(
 
 
 def _as_errors(errors) -> np.ndarray:
-    err = np.asarray(errors, dtype=float)
+    err = as_real_array(errors, "errors", "m")
     if err.ndim != 2 or err.shape[1] != 3 or err.shape[0] == 0:
         raise ValueError(f"errors must have shape (N, 3) with N >= 1, got {err.shape}")
     if not np.all(np.isfinite(err)):

@@ -32,6 +32,7 @@ from kinematics.joint_limits import (
     JointLimits,
     as_joint_array,
     check_joint_limits,
+    check_payload,
     check_within,
 )
 from kinematics.mounting import DEFAULT_GRAVITY
@@ -272,9 +273,7 @@ class RavenII:
 
     @staticmethod
     def _checked_payload(payload_kg: float) -> float:
-        if not (np.isfinite(payload_kg) and payload_kg >= 0.0):
-            raise ValueError(f"payload_kg must be finite and >= 0 kg, got {payload_kg!r}")
-        return float(payload_kg)
+        return check_payload(payload_kg)
 
     def gravity_torques(
         self, q, payload_kg: float = 0.0, *, check_limits: bool | None = None, data=None

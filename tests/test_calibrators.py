@@ -214,7 +214,7 @@ def test_bad_raw_columns(data, name, raw_columns, error, message):
     (DNNCalibrator(batch_size=0), ValueError, "batch_size must be >= 1"),
     (DNNCalibrator(n_threads=0), ValueError, "n_threads must be >= 1"),
     (DNNCalibrator(early_stopping=True, validation_fraction=0.999, max_epochs=1), ValueError,
-     "early stopping needs at least one training and one validation sample"),
+     r"needs at least 1000 samples to hold out validation_fraction=0.999 .* got 20 samples"),
     (GPRCalibrator(subset_size=0), ValueError, "subset_size must be >= 1"),
     (GPRCalibrator(length_scale_bounds=(1.0, 0.1)), ValueError, "length_scale_bounds must satisfy"),
     (TwoPhaseCalibrator(dnn=DNNCalibrator(raw_columns=[0])), ValueError,
