@@ -11,8 +11,10 @@ import sys
 import numpy as np
 import pytest
 
+from kinematics import RavenII
+from simulation import powered_on, record_random_test, recording_to_dataset
 from studies import compare_sota
-from studies.common.data_sources import simulated_comparison
+from studies.common.data_sources import recorded_comparison
 from studies.common.methods import MethodSettings, method_catalogue
 from studies.common.sweeps import run_tasks, shared_arguments
 from studies.common.training import run_methods
@@ -30,16 +32,28 @@ def _no_ambient_scheduler(monkeypatch):
     monkeypatch.delenv("DASK_SCHEDULER_ADDRESS", raising=False)
 
 
-def _joint_rmse(runs) -> dict:
-    return {key: [list(run.mean(test).joint) for test in ("unloaded", "loaded")] for key, run in runs.items()}
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """A short recorded session (40 s of random motion, 30 Hz) as a dataset file: the runs below
+    read it instead of simulating the paper's protocol."""
+    recording = record_random_test(powered_on(seed=8), 40.0, seed=1)
+    path = tmp_path_factory.mktemp("recorded") / "session.parquet"
+    recording_to_dataset(recording, RavenII(recording.arm)).to_parquet(path)
+    return path
 
 
-def test_compare_sota_on_a_local_dask_cluster_matches_loky(tmp_path):
+def _joint_rmse(runs, tests) -> dict:
+    return {key: [list(run.mean(test).joint) for test in tests] for key, run in runs.items()}
+
+
+def test_compare_sota_on_a_local_dask_cluster_matches_loky(recorded, tmp_path):
     documents = {}
     for backend in ("loky", "dask"):
-        documents[backend] = compare_sota.main(["--quick", "--methods", "fixed_offset,linear", "--backend", backend,
-                                                "--jobs", "2", "--no-progress", "--out", str(tmp_path / backend)])
+        documents[backend] = compare_sota.main(["--data", str(recorded), "--quick", "--methods", "fixed_offset,linear",
+                                                "--backend", backend, "--jobs", "2", "--no-progress",
+                                                "--out", str(tmp_path / backend)])
     loky, dask = documents["loky"], documents["dask"]
+    assert loky["tests"] == ["test"]
     for test in loky["tests"]:
         assert set(loky[test]["joint_rmse"]) == {"fixed_offset", "linear"}
         assert dask[test]["joint_rmse"] == loky[test]["joint_rmse"]
@@ -47,8 +61,8 @@ def test_compare_sota_on_a_local_dask_cluster_matches_loky(tmp_path):
     assert (loky["configuration"]["backend"], dask["configuration"]["backend"]) == ("loky", "dask")
 
 
-def test_a_sweep_on_an_existing_cluster_matches_this_process_including_a_network():
-    data = simulated_comparison(seed=4, sparsities=(1 / 3,), test_duration=40.0)
+def test_a_sweep_on_an_existing_cluster_matches_this_process_including_a_network(recorded):
+    data = recorded_comparison(recorded)
     catalogue = method_catalogue(TINY)
     methods = [catalogue[key] for key in ("fixed_offset", "linear", "dnn")]
     # torch and BLAS threads are fixed per fit (settings.n_threads), so this process is a fair reference
@@ -60,7 +74,7 @@ def test_a_sweep_on_an_existing_cluster_matches_this_process_including_a_network
         with distributed.Client(cluster.scheduler_address) as client:
             assert len(client.scheduler_info()["workers"]) == 2
     assert all(run.ok for run in remote.values()) and len(remote["dnn"].outcomes) == 2
-    assert _joint_rmse(remote) == _joint_rmse(local)
+    assert _joint_rmse(remote, data.tests) == _joint_rmse(local, data.tests)
     for key in remote:
         for test in data.tests:
             assert np.array_equal(remote[key].predictions(test), local[key].predictions(test))
