@@ -6,6 +6,7 @@ comparison run with ``--backend dask`` and with ``--backend loky`` must agree to
 
 from __future__ import annotations
 
+import os
 import sys
 
 import numpy as np
@@ -42,15 +43,23 @@ def recorded(tmp_path_factory):
     return path
 
 
+@pytest.fixture(scope="module")
+def cluster():
+    """A Dask cluster of two worker processes on this machine, shared by the tests below (each
+    worker pays the imports once)."""
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as local:
+        yield local
+
+
 def _joint_rmse(runs, tests) -> dict:
     return {key: [list(run.mean(test).joint) for test in tests] for key, run in runs.items()}
 
 
-def test_compare_sota_on_a_local_dask_cluster_matches_loky(recorded, tmp_path):
+def test_compare_sota_on_a_dask_cluster_matches_loky(recorded, cluster, tmp_path):
     documents = {}
-    for backend in ("loky", "dask"):
+    for backend, scheduler in (("loky", []), ("dask", ["--scheduler", cluster.scheduler_address])):
         documents[backend] = compare_sota.main(["--data", str(recorded), "--quick", "--methods", "fixed_offset,linear",
-                                                "--backend", backend, "--jobs", "2", "--no-progress",
+                                                "--backend", backend, *scheduler, "--jobs", "2", "--no-progress",
                                                 "--out", str(tmp_path / backend)])
     loky, dask = documents["loky"], documents["dask"]
     assert loky["tests"] == ["test"]
@@ -61,23 +70,28 @@ def test_compare_sota_on_a_local_dask_cluster_matches_loky(recorded, tmp_path):
     assert (loky["configuration"]["backend"], dask["configuration"]["backend"]) == ("loky", "dask")
 
 
-def test_a_sweep_on_an_existing_cluster_matches_this_process_including_a_network(recorded):
+def test_a_sweep_on_an_existing_cluster_matches_this_process_including_a_network(recorded, cluster):
     data = recorded_comparison(recorded)
     catalogue = method_catalogue(TINY)
     methods = [catalogue[key] for key in ("fixed_offset", "linear", "dnn")]
     # torch and BLAS threads are fixed per fit (settings.n_threads), so this process is a fair reference
     local = run_methods(methods, data.train, data.tests, seed=4, n_jobs=1, backend="sequential", progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        remote = run_methods(methods, data.train, data.tests, seed=4, n_jobs=2, backend="dask",
-                             scheduler=cluster.scheduler_address, progress=False)
-        # the sweep used the given cluster and left it running
-        with distributed.Client(cluster.scheduler_address) as client:
-            assert len(client.scheduler_info()["workers"]) == 2
+    remote = run_methods(methods, data.train, data.tests, seed=4, n_jobs=2, backend="dask",
+                         scheduler=cluster.scheduler_address, progress=False)
+    # the sweep used the given cluster and left it running
+    with distributed.Client(cluster.scheduler_address) as client:
+        assert len(client.scheduler_info()["workers"]) == 2
     assert all(run.ok for run in remote.values()) and len(remote["dnn"].outcomes) == 2
     assert _joint_rmse(remote, data.tests) == _joint_rmse(local, data.tests)
     for key in remote:
         for test in data.tests:
             assert np.array_equal(remote[key].predictions(test), local[key].predictions(test))
+
+
+def test_without_a_scheduler_a_sweep_starts_its_own_local_cluster():
+    assert run_tasks(divmod, [(7, 2), (9, 4), (5, 5)], n_jobs=2, backend="dask", progress=False) == \
+        [(3, 1), (2, 1), (1, 0)]
+    assert os.getpid() not in run_tasks(os.getpid, [(), ()], n_jobs=2, backend="dask", progress=False)
 
 
 def test_a_missing_engine_is_named_with_its_install_command(monkeypatch):
