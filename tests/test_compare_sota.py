@@ -21,12 +21,12 @@ REDUCED = MethodSettings(dnn_seeds=1, dnn_epochs=60, lstm_epochs=2, forest_trees
 
 @pytest.fixture(scope="module")
 def data():
-    return simulated_comparison(seed=4, sparsities=(1 / 3,), test_duration=120.0)
+    return simulated_comparison(seed=4, sparsities=(1 / 3,), test_duration=60.0)
 
 
 @pytest.fixture(scope="module")
 def comparison(data):
-    config = compare_sota.CompareConfig(seed=4, sparsities=(1 / 3,), test_duration=120.0,
+    config = compare_sota.CompareConfig(seed=4, sparsities=(1 / 3,), test_duration=60.0,
                                         methods=(*BASE_METHODS, "window_linear"), settings=REDUCED)
     return config, compare_sota.compare(data, config, n_jobs=1, backend="sequential", progress=False)
 

@@ -30,7 +30,7 @@ needs_compiler = pytest.mark.skipif(COMPILER is None, reason="no C compiler (cc)
 CALLER = """
 #include "{name}.h"
 
-void run_rows(const double *X, double *Y, int n)
+void run_rows_{name}(const double *X, double *Y, int n)
 {{
     int k;
     for (k = 0; k < n; ++k) {name}(X + k * {NAME}_N_FEATURES, Y + k * {NAME}_N_TARGETS);
@@ -47,33 +47,43 @@ def data(n_samples=300, n_features=5, n_targets=3, seed=0):
     return X, y
 
 
-def compile_and_load(calibrator, directory, name="calibrator", flags=("-O2",)):
-    """Export, compile as the docs say (generated file + caller's file, -lm) and load."""
-    c_path, h_path = export_c(calibrator, directory, name=name)
-    caller = directory / "caller.c"
-    caller.write_text(CALLER.format(name=name, NAME=name.upper()))
-    library = directory / f"lib{name}.so"
+def compile_and_load(calibrators, directory, flags=("-O2",)):
+    """Export every calibrator of ``{name: fitted calibrator}``, compile them as the docs say
+    (generated files + the caller's files, -lm) into one shared library, and load it.
+
+    Returns ``{name: (predict over rows, the single-sample function)}``.
+    """
+    sources = []
+    for name in calibrators:
+        c_path, _ = export_c(calibrators[name], directory, name=name)
+        caller = directory / f"{name}_caller.c"
+        caller.write_text(CALLER.format(name=name, NAME=name.upper()))
+        sources += [str(c_path), str(caller)]
+    library = directory / "libcalibrators.so"
     command = [COMPILER, *flags, "-std=c99", "-Wall", "-Wextra", "-Werror", "-shared", "-fPIC",
-               str(c_path), str(caller), "-lm", "-o", str(library)]
+               *sources, "-lm", "-o", str(library)]
     result = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     handle = ctypes.CDLL(str(library))
-    run_rows = handle.run_rows
-    run_rows.argtypes = [ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_double),
-                         ctypes.c_int]
-    run_rows.restype = None
-    single = getattr(handle, name)
-    single.argtypes = [ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_double)]
-    single.restype = None
+    loaded = {}
+    for name, calibrator in calibrators.items():
+        run_rows = getattr(handle, f"run_rows_{name}")
+        run_rows.argtypes = [ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_double),
+                             ctypes.c_int]
+        run_rows.restype = None
+        single = getattr(handle, name)
+        single.argtypes = [ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_double)]
+        single.restype = None
 
-    def predict(X):
-        X = np.ascontiguousarray(X, dtype=np.float64)
-        Y = np.empty((X.shape[0], calibrator.n_outputs_))
-        run_rows(X.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
-                 Y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), X.shape[0])
-        return Y
+        def predict(X, run_rows=run_rows, n_outputs=calibrator.n_outputs_):
+            X = np.ascontiguousarray(X, dtype=np.float64)
+            Y = np.empty((X.shape[0], n_outputs))
+            run_rows(X.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+                     Y.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), X.shape[0])
+            return Y
 
-    return predict, single
+        loaded[name] = predict, single
+    return loaded
 
 
 def assert_agrees(c_output, expected):
@@ -100,12 +110,36 @@ CASES = {
 }
 
 
+SATURATED = ("sigmoid", "tanh", "relu")
+FRAME_COLUMNS = ["q_shoulder", "q_elbow", "q_insertion", "tau", "unused"]
+
+
+@pytest.fixture(scope="module")
+def compiled(tmp_path_factory):
+    """Every exported variant of this file, fitted, compiled once into one shared library.
+
+    Returns the folder of the generated files, ``{name: fitted calibrator}`` and
+    ``{name: (predict over rows, single-sample function)}`` of the compiled code.
+    """
+    if COMPILER is None:
+        pytest.skip("no C compiler (cc) on this system")
+    X, y = data()
+    calibrators = {case: make().fit(X, y) for case, make in CASES.items()}
+    for activation in SATURATED:
+        calibrators[f"saturated_{activation}"] = DNNCalibrator(
+            raw_columns=[0, 1, 2], activation=activation, hidden_layer_sizes=(16,), max_epochs=5,
+            random_state=0, n_threads=1).fit(X, y)
+    calibrators["elbow_correction"] = LinearCalibrator(raw_columns=1).fit(
+        pd.DataFrame(X, columns=FRAME_COLUMNS), y[:, 1])
+    directory = tmp_path_factory.mktemp("export_c")
+    return directory, calibrators, compile_and_load(calibrators, directory)
+
+
 @needs_compiler
 @pytest.mark.parametrize("case", list(CASES))
-def test_compiled_export_predicts_as_predict(tmp_path, case):
-    X, y = data()
-    calibrator = CASES[case]().fit(X, y)
-    predict_c, _ = compile_and_load(calibrator, tmp_path)
+def test_compiled_export_predicts_as_predict(compiled, case):
+    _, calibrators, functions = compiled
+    calibrator, (predict_c, _) = calibrators[case], functions[case]
     for seed in (1, 2, 3):
         X_new, _ = data(n_samples=200, seed=seed)
         X_new[:, -1] = np.random.default_rng(seed).normal(size=200)  # even off the constant
@@ -113,21 +147,19 @@ def test_compiled_export_predicts_as_predict(tmp_path, case):
 
 
 @needs_compiler
-def test_one_dimensional_target_and_dataframe_names(tmp_path):
-    X, y = data()
-    frame = pd.DataFrame(X, columns=["q_shoulder", "q_elbow", "q_insertion", "tau", "unused"])
-    calibrator = LinearCalibrator(raw_columns=1).fit(frame, y[:, 1])
-    predict_c, single = compile_and_load(calibrator, tmp_path, name="elbow_correction")
+def test_one_dimensional_target_and_dataframe_names(compiled):
+    directory, calibrators, functions = compiled
+    calibrator, (predict_c, single) = calibrators["elbow_correction"], functions["elbow_correction"]
     X_new, _ = data(seed=4)
     assert_agrees(predict_c(X_new), calibrator.predict(pd.DataFrame(X_new,
-                                                                    columns=frame.columns)))
-    header = (tmp_path / "elbow_correction.h").read_text()
+                                                                    columns=FRAME_COLUMNS)))
+    header = (directory / "elbow_correction.h").read_text()
     assert "#define ELBOW_CORRECTION_N_FEATURES 5" in header
     assert "#define ELBOW_CORRECTION_N_TARGETS 1" in header
     assert "q_shoulder, q_elbow" in header
     # The single-sample function itself, called directly, with its output in place of its input.
     row = np.ascontiguousarray(X_new[7])
-    expected = calibrator.predict(pd.DataFrame(row[None, :], columns=frame.columns))
+    expected = calibrator.predict(pd.DataFrame(row[None, :], columns=FRAME_COLUMNS))
     single(row.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
            row.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
     assert_agrees(row[:1], expected)
@@ -169,16 +201,14 @@ def test_unfitted_calibrators_and_bad_names_are_refused(tmp_path):
 
 
 @needs_compiler
-@pytest.mark.parametrize("activation", ["sigmoid", "tanh", "relu"])
-def test_saturated_units_and_missing_inputs(tmp_path, activation):
-    X, y = data()
-    calibrator = DNNCalibrator(raw_columns=[0, 1, 2], activation=activation,
-                               hidden_layer_sizes=(16,), max_epochs=5, random_state=0,
-                               n_threads=1).fit(X, y)
+@pytest.mark.parametrize("activation", SATURATED)
+def test_saturated_units_and_missing_inputs(compiled, activation):
+    _, calibrators, functions = compiled
+    name = f"saturated_{activation}"
+    calibrator, (predict_c, _) = calibrators[name], functions[name]
     # Inputs far outside the training range drive every hidden unit deep into saturation.
     X_far, _ = data(n_samples=100, seed=5)
     X_far *= np.logspace(-8, 3, 100)[:, None]
-    predict_c, _ = compile_and_load(calibrator, tmp_path)
     assert_agrees(predict_c(X_far), calibrator.predict(X_far))
     X_nan = X_far[:3].copy()
     X_nan[:, 3] = np.nan

@@ -12,6 +12,7 @@ import importlib
 import importlib.util
 import json
 import os
+import runpy
 import subprocess
 import sys
 from pathlib import Path
@@ -47,7 +48,8 @@ def workspace(tmp_path):
     return tmp_path
 
 
-# one mistake per script, run as the user runs it (a new process)
+# one mistake per script, each script run as a program (its ``__main__`` block) in this process:
+# a new process per script would pay the imports each time; two of them run as real processes below
 SCRIPT_MISTAKES = [
     ("compare_sota", ["--data", "{tmp}/empty"], "holds no .bag or .parquet"),
     ("compare_sota", ["--data", "{tmp}/corrupt.parquet"], "corrupt.parquet"),
@@ -63,19 +65,44 @@ SCRIPT_MISTAKES = [
 ]
 
 
+def _arguments(arguments: list[str], workspace: Path) -> list[str]:
+    arguments = [a.replace("{tmp}", str(workspace)) for a in arguments]
+    return arguments if "--out" in arguments else arguments + ["--out", str(workspace / "previous")]
+
+
+def _assert_one_line_error(script: str, status, stdout: str, stderr: str, named: str) -> None:
+    lines = stderr.strip().splitlines()
+    assert status == 2, stderr
+    assert len(lines) == 1 and lines[0].startswith(f"python studies/{script}.py: error: "), stderr
+    assert named in lines[0]
+    assert "Traceback" not in stderr and stdout == ""
+
+
 @pytest.mark.parametrize("script, arguments, named", SCRIPT_MISTAKES,
                          ids=[f"{s}{' '.join(a).replace('{tmp}', '')}" for s, a, _ in SCRIPT_MISTAKES])
-def test_a_mistake_gets_one_line_and_status_2_and_nothing_is_written(workspace, script, arguments, named):
-    arguments = [a.replace("{tmp}", str(workspace)) for a in arguments]
-    if "--out" not in arguments:
-        arguments += ["--out", str(workspace / "previous")]
+def test_a_mistake_gets_one_line_and_status_2_and_nothing_is_written(workspace, capsys, monkeypatch,
+                                                                     script, arguments, named):
+    path = ROOT / "studies" / f"{script}.py"
+    monkeypatch.setattr(sys, "argv", [str(path), *_arguments(arguments, workspace)])
+    monkeypatch.chdir(workspace)
     before = _tree(workspace)
-    result = _run_script(script, *arguments, cwd=workspace)
-    lines = result.stderr.strip().splitlines()
-    assert result.returncode == 2, result.stderr
-    assert len(lines) == 1 and lines[0].startswith(f"python studies/{script}.py: error: "), result.stderr
-    assert named in lines[0]
-    assert "Traceback" not in result.stderr and result.stdout == ""
+    with pytest.raises(SystemExit) as exit_info:
+        runpy.run_path(str(path), run_name="__main__")
+    captured = capsys.readouterr()
+    _assert_one_line_error(script, exit_info.value.code, captured.out, captured.err, named)
+    assert _tree(workspace) == before
+
+
+# run as the user runs it: a new process, its exit status and its stderr
+PROCESS_MISTAKES = [SCRIPT_MISTAKES[0], SCRIPT_MISTAKES[4]]
+
+
+@pytest.mark.parametrize("script, arguments, named", PROCESS_MISTAKES,
+                         ids=[f"{s}{' '.join(a).replace('{tmp}', '')}" for s, a, _ in PROCESS_MISTAKES])
+def test_a_mistake_in_a_new_process_exits_with_status_2(workspace, script, arguments, named):
+    before = _tree(workspace)
+    result = _run_script(script, *_arguments(arguments, workspace), cwd=workspace)
+    _assert_one_line_error(script, result.returncode, result.stdout, result.stderr, named)
     assert _tree(workspace) == before
 
 
