@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-JOINT_NAMES = ("shoulder", "elbow", "insertion", "tool_roll", "wrist", "grasp")
+JOINT_NAMES = ("shoulder", "elbow", "z_ins", "tool_rot", "wrist", "grasp")
 """Names of the controller's joints J0..J5."""
 
 JOINT_UNITS = ("rad", "rad", "m", "rad", "rad", "rad")

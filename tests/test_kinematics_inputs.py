@@ -63,7 +63,7 @@ def test_insertion_above_limit_names_joint_limit_and_row(robot):
     with pytest.raises(ValueError) as info:
         robot.forward_kinematics(q)
     message = str(info.value)
-    assert "insertion (J2) in row 1 = 0.6 m" in message
+    assert "z_ins (J2) in row 1 = 0.6 m" in message
     assert "upper limit 0.56 m" in message
 
 
@@ -73,8 +73,8 @@ def test_insertion_above_limit_names_joint_limit_and_row(robot):
         (0, -1 * DEG, "shoulder (J0)"),
         (0, 91 * DEG, "shoulder (J0)"),
         (1, 136 * DEG, "elbow (J1)"),
-        (2, 0.22, "insertion (J2)"),
-        (3, 183 * DEG, "tool_roll (J3)"),
+        (2, 0.22, "z_ins (J2)"),
+        (3, 183 * DEG, "tool_rot (J3)"),
         (4, -76 * DEG, "wrist (J4)"),
         (5, 90 * DEG, "grasp (J5)"),
     ],
@@ -112,7 +112,7 @@ def test_joint_limits_property_is_the_controllers(robot):
 
 def test_check_joint_limits_accepts_the_positioning_joints_alone():
     check_joint_limits(INSIDE[:3])
-    with pytest.raises(ValueError, match=r"insertion \(J2\)"):
+    with pytest.raises(ValueError, match=r"z_ins \(J2\)"):
         check_joint_limits([[0.1, 1.0, 0.1]])
     with pytest.raises(ValueError, match="1 <= k <= 6"):
         check_joint_limits(np.zeros(7))

@@ -88,7 +88,7 @@ def test_linearization_residual_is_second_order(robot):
 def test_insertion_error_moves_tip_along_tool_axis(robot, error_mm):
     rng = np.random.default_rng(33)
     data = robot.create_data()
-    tool_roll = robot.model.getJointId("tool_roll")
+    tool_roll = robot.model.getJointId("tool_rot")
     for q in workspace_q(rng, 10):
         pin.forwardKinematics(robot.model, data, q)
         tool_axis = data.oMi[tool_roll].rotation[:, 2]

@@ -16,11 +16,12 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from simulation.model.constants import POSITIONING_NAMES
 from simulation.model.parameters import RavenParameters
 
 FITTABLE_EFFECTS = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction")
 """Effects whose parameters the identification can estimate (the UKF's model class)."""
-JOINT_NAMES = ("shoulder", "elbow", "z_ins")
+JOINT_NAMES = POSITIONING_NAMES
 COUPLING_NAMES = ("c01", "c02", "c12")
 OFFSET = "offset"
 

@@ -1,7 +1,8 @@
 """Order, home pose and safe ranges of the seven DOFs a joint trajectory drives.
 
 A trajectory sample is a vector of seven DOFs of one RAVEN-II arm, SI units:
-``[shoulder rad, elbow rad, insertion m, tool_rot rad, wrist rad, grasp1 rad, grasp2 rad]``.
+``[shoulder rad, elbow rad, z_ins m, tool_rot rad, wrist rad, grasp1 rad, grasp2 rad]``
+(:data:`simulation.model.constants.DOF_NAMES`, the controller's names).
 The first three are the positioning joints (the paper's joints 1, 2, 3); the last four are the
 tool DOFs, which the calibration motions hold at the controller's home angles
 (``include/raven/defines.h`` of ``uw-biorobotics/raven2``).
@@ -11,8 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-DOF_NAMES = ("shoulder", "elbow", "insertion", "tool_rot", "wrist", "grasp1", "grasp2")
-"""The seven DOFs of a trajectory sample, in column order."""
+from simulation.model.constants import DOF_NAMES
 
 N_DOF = len(DOF_NAMES)
 N_POSITIONING = 3
