@@ -34,10 +34,9 @@ from estimators.ukf.process import ProcessModel
 from estimators.ukf.run import initial_state
 from kinematics import RavenII
 from simulation.identification import MotorLog, PoorlyIdentifiedWarning, identify
+from simulation.model.constants import REPORT_SCALE
 from simulation.recordings.recording import recording_to_dataset
 from simulation.engine.scenarios import long_operation, paper_protocol, powered_on, record_calibration, record_random_test
-
-REPORT = np.array([180.0 / np.pi, 180.0 / np.pi, 1000.0])
 
 
 def rmse(error: np.ndarray) -> np.ndarray:
@@ -45,7 +44,7 @@ def rmse(error: np.ndarray) -> np.ndarray:
 
 
 def row(label: str, values: np.ndarray) -> str:
-    shown = np.asarray(values) * REPORT
+    shown = np.asarray(values) * REPORT_SCALE
     return f"  {label:28s} {shown[0]:8.3f} deg {shown[1]:8.3f} deg {shown[2]:8.3f} mm"
 
 
@@ -141,7 +140,7 @@ def rates(args) -> None:
             estimates = estimator.predict(log)
             walls += time.perf_counter() - start
             duration += recording.duration
-            cells.append(" ".join(f"{v:8.3f}" for v in rmse(estimates.joints - log.joints) * REPORT))
+            cells.append(" ".join(f"{v:8.3f}" for v in rmse(estimates.joints - log.joints) * REPORT_SCALE))
         print(f"  {rate:6.0f}  {cells[0]:34s} {cells[1]:34s} {duration / walls:8.1f}")
 
 
@@ -168,7 +167,7 @@ def long_run(args) -> None:
     for hour in np.unique(hours):
         rows = hours == hour
         print(row(f"hour {hour} UKF RMSE", rmse(estimates.joints[rows] - log.joints[rows]))
-              + "   raw " + " ".join(f"{v:.3f}" for v in rmse(raw[rows]) * REPORT))
+              + "   raw " + " ".join(f"{v:.3f}" for v in rmse(raw[rows]) * REPORT_SCALE))
 
 
 def main(argv=None) -> None:

@@ -24,7 +24,6 @@ fitted values in place), readable by :meth:`RavenParameters.from_json
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +31,8 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from simulation.model.laws import cable_stretch_curve, cable_tension_curve
+from simulation.model.constants import REPORT_SCALE
+from simulation.model.laws import cable_tension_curve
 from simulation.model.parameters import RavenParameters
 from simulation.recordings.recording import Recording
 from simulation.engine.robot import VirtualRaven
@@ -40,7 +40,6 @@ from simulation.engine.scenarios import _seeds, long_operation, powered_on, reco
 
 DEG = np.pi / 180.0
 MM = 1e-3
-REPORT_SCALE = np.array([1 / DEG, 1 / DEG, 1 / MM])
 
 PUBLISHED_RAW = np.array([2.103 * DEG, 7.963 * DEG, 11.715 * MM])
 """Table I, direction J2-J3: raw RMSE of joints 1-3 (rad, rad, m)."""

@@ -7,11 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simulation.model.constants import REPORT_SCALE, REPORT_UNITS
 from simulation.model.parameters import RavenParameters
 from simulation.identification.layout import JOINT_NAMES
-
-REPORT_SCALE = np.array([180.0 / np.pi, 180.0 / np.pi, 1000.0])
-REPORT_UNITS = ("deg", "deg", "mm")
 
 
 def _read_only(obj, names) -> None:

@@ -21,6 +21,13 @@ DOF_NAMES = ("shoulder", "elbow", "z_ins", "tool_rot", "wrist", "grasp1", "grasp
 POSITIONING_NAMES = ("shoulder", "elbow", "z_ins")
 """The paper's joints 1, 2, 3 (rad, rad, m)."""
 
+REPORT_UNITS = ("deg", "deg", "mm")
+"""Units of the positioning joints in tables, reports and plots (SI inside)."""
+
+REPORT_SCALE = np.array([180.0 / np.pi, 180.0 / np.pi, 1000.0])
+"""Multiplies positioning-joint values in SI (rad, rad, m) into :data:`REPORT_UNITS`."""
+REPORT_SCALE.setflags(write=False)
+
 SLOT_OF_DOF = np.array([0, 1, 2, 4, 5, 6, 7])
 """Controller slot (0..7) of each simulator DOF; slot 3 is the unused NO_CONNECTION channel."""
 

@@ -16,12 +16,12 @@ import numpy as np
 from estimators import rmse_per_joint
 from kinematics import RavenII, tool_tip_error, tool_tip_rmse, with_exact_tool_joints
 
+from simulation.model.constants import REPORT_SCALE
 from studies.common.samples import Samples
 
 JOINT_HEADERS = ("Joint 1 (deg)", "Joint 2 (deg)", "Joint 3 (mm)")
 CARTESIAN_HEADERS = ("X (mm)", "Y (mm)", "Z (mm)", "Dist (mm)")
 JOINT_UNITS = ("deg", "deg", "mm")
-_REPORT_SCALE = np.array([180.0 / np.pi, 180.0 / np.pi, 1e3])
 
 
 def to_report_units(joint_values_si) -> np.ndarray:
@@ -29,7 +29,7 @@ def to_report_units(joint_values_si) -> np.ndarray:
     values = np.asarray(joint_values_si, dtype=np.float64)
     if values.shape[-1:] != (3,):
         raise ValueError(f"expected joint 1-3 values in the last axis (size 3), got shape {values.shape}")
-    return values * _REPORT_SCALE
+    return values * REPORT_SCALE
 
 
 def joint_rmse_report(truth, estimate) -> np.ndarray:
