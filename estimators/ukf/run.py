@@ -15,11 +15,16 @@ per run):
   accepted reading than the RE40 can turn at its no-load speed, 7580 rpm for the Maxon RE40
   148877 at 48 V (:data:`simulation.recordings.limits.RE40_NO_LOAD_SPEED`), plus
   ``SPEED_MARGIN`` and two encoder counts, divided by the transmission ratio in motor
-  coordinates. A torque sample that is not finite, flagged, or beyond what the controller's DAC
+  coordinates (794 rad/s at the motor shaft: 29 motor rad in one 30 Hz tick, 0.21 rad of the
+  shoulder's motor coordinate). A torque sample that is not finite, flagged, or beyond what the controller's DAC
   clip lets the motor produce (``dac_max / dac_per_amp * torque_per_amp``, N m at the gearbox
   output, plus ``SPEED_MARGIN``) is not used: the last good torque is held.
 * **The innovation gate**: a reading whose squared Mahalanobis distance ``y^T S^-1 y`` exceeds
-  ``chi2.ppf(gate_probability, 3)`` (21.1 at the default 0.9999) is rejected (predict only).
+  ``chi2.ppf(gate_probability, 3)`` (21.1 at the default 0.9999) is rejected (predict only),
+  unless widening the predicted covariance by at most ``max_inflation`` (10: innovations up to
+  about 14.5 predicted standard deviations) brings it inside: then the model's prediction, not the
+  reading, was at fault (an unmodelled payload does this), and the reading is used with the wider
+  prediction (counted as ``n_inflated``, not as a fault).
 * **Divergence** (re-initialisation from the reading: state at rest under gravity at the motor
   positions, covariance the initial one): a non-finite state or covariance, a joint or motor
   position standard deviation beyond ``COVARIANCE_LIMIT``, or ``max_rejections`` readings
@@ -116,8 +121,9 @@ class UKFSettings:
     innovation must fall in; ``max_rejections``: readings rejected in a row before the filter
     re-initialises; ``max_inflation``: largest factor on the predicted covariance that may bring a
     reading beyond the gate back inside it (a prediction the model made overconfident; see
-    :meth:`~estimators.ukf._filter.BatchUnscentedKalmanFilter.gated_update`); ``coast_noise_scale``: factor on the process covariance while no reading is
-    used (the noise was tuned with the readings correcting the model every step).
+    :meth:`~estimators.ukf._filter.BatchUnscentedKalmanFilter.gated_update`); ``coast_noise_scale``:
+    factor on the process covariance while no reading is used (the noise was tuned with the
+    readings correcting the model every step).
     """
 
     alpha: float = 1.0
@@ -428,8 +434,8 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
         reasons = sorted({reason for _, reason in reinitialisations})
         warnings.warn(
             f"UKF over {n} samples: rejected {result.n_rejected} readings ({result.n_implausible} implausible, "
-            f"{result.n_rejected - result.n_implausible} by the innovation gate; {result.n_inflated} more accepted by widening the prediction), coasted through {result.n_coasted} "
-            f"samples, re-initialised {result.n_reinitialised} times" + (f" ({'; '.join(reasons)})" if reasons else "")
+            f"{result.n_rejected - result.n_implausible} by the innovation gate; {result.n_inflated} more accepted "
+            f"by widening the prediction), coasted through {result.n_coasted} samples, re-initialised {result.n_reinitialised} times" + (f" ({'; '.join(reasons)})" if reasons else "")
             + f"; skipped {result.n_skipped} updates (missing motor reading), held an earlier torque "
             f"{result.n_missing_torque} times, predicted across {result.n_gaps} gaps, restarted "
             f"{result.n_restarts} times, repaired {result.n_repairs} covariances", UKFFaultWarning, stacklevel=3)
