@@ -255,15 +255,11 @@ def _diverged(P: np.ndarray) -> bool:
                 or np.any(spread[6:9] > COVARIANCE_LIMIT ** 2))
 
 
-def _lost(P: np.ndarray) -> np.ndarray:
-    P = P.copy()
-    for i in range(3):
-        j = 6 + i
-        if P[j, j] < LOST_SPREAD[i] ** 2:
-            scale = LOST_SPREAD[i] / np.sqrt(P[j, j])
-            P[j, :] *= scale
-            P[:, j] *= scale
-    return P
+def _lost(joint_covariance: np.ndarray) -> np.ndarray:
+    """The joint covariance with each standard deviation raised to at least ``LOST_SPREAD``."""
+    spread = np.sqrt(np.diagonal(joint_covariance))
+    scale = np.maximum(LOST_SPREAD / spread, 1.0)
+    return joint_covariance * scale[:, None] * scale[None, :]
 
 
 def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, measurement: np.ndarray,
@@ -325,9 +321,11 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
     run = 0                             # readings rejected in a row
     blind = 0.0                         # seconds since the last used reading
 
-    def record(k: int, P: np.ndarray | None = None) -> None:
+    def record(k: int, lost: bool = False) -> None:
         states[k] = ukf.x
-        joint_cov[k] = (ukf.P if P is None else P)[6:9, 6:9] * scaling
+        joint_cov[k] = ukf.P[6:9, 6:9] * scaling
+        if lost:
+            joint_cov[k] = _lost(joint_cov[k])
         if min_eig is not None:
             min_eig[k] = np.linalg.eigvalsh(ukf.P)[0]
 
@@ -360,7 +358,7 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
                 record(k)
             else:
                 counts["coasted"] += 1
-                record(k, _lost(ukf.P))
+                record(k, lost=True)
             continue
         if dt > GAP_FACTOR * period:
             counts["gaps"] += 1
@@ -377,7 +375,7 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
                 record(k)
             else:
                 counts["coasted"] += 1
-                record(k, _lost(ukf.P))
+                record(k, lost=True)
             continue
         if not usable:
             counts["coasted"] += 1
@@ -385,7 +383,7 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
             flags[k] = COASTING
             if blind > settings.max_gap:
                 pending = "no reading for max_gap"
-                record(k, _lost(ukf.P))
+                record(k, lost=True)
                 continue
         elif not plausible(k):
             counts["rejected"] += 1
@@ -415,7 +413,7 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
                 reinitialise(k, "covariance beyond COVARIANCE_LIMIT")
             else:
                 pending = "covariance beyond COVARIANCE_LIMIT"
-                record(k, _lost(ukf.P))
+                record(k, lost=True)
                 continue
         elif blind > settings.max_gap:
             pending = "no accepted reading for max_gap"
