@@ -50,7 +50,7 @@ from simulation.recordings.dataset import CalibrationDataset
 from estimators.ukf.model import CableModel
 from estimators.ukf.noise import ProcessNoise, encoder_noise, physical_process_noise
 from estimators.ukf.process import MAX_STEP, REFRESH
-from estimators.ukf.run import JointEstimates, SampleLimits, UKFSettings, run_filter
+from estimators.ukf.run import JointEstimates, SampleLimits, UKFSettings, check_log_rate, run_filter
 
 TUNING_CRITERIA = ("likelihood", "joint_error", "none")
 
@@ -88,7 +88,7 @@ class UKFJointEstimator(BaseEstimator):
         window (which has ground truth), the mean squared joint error over the variance is 1 per
         joint (``covariance_scale_``). The filter's own joint covariance is far too small: the
         joints are seen only through the cable model, whose friction and stretch it takes as exact
-        (on its own model class the shoulder and elbow errors are ~10x its standard deviation). The
+        (on its own model class the shoulder and elbow errors are 12-17x its standard deviation). The
         estimates are unchanged; without ground truth the scale is 1.
     coast_noise_scale : factor on the process covariance over steps without a usable reading (1:
         the tuned noise; larger widens the reported spread while coasting).
@@ -190,6 +190,7 @@ class UKFJointEstimator(BaseEstimator):
         if isinstance(log, CalibrationDataset) and log.n_invalid:
             log = log.select(log.valid_mask())      # flagged rows hold values no robot produces
         log = as_motor_log(log)
+        check_log_rate(log.time)
         settings = self._settings()
         base = self.base_parameters if self.base_parameters is not None else RavenParameters(arm=log.arm)
         options = dict(self.identification_options or {})
