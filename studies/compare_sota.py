@@ -238,6 +238,9 @@ def results_document(comparison: Comparison, config: CompareConfig, *, started: 
     for test in comparison.tests:
         document[test] = test_results(comparison, test)
         document[test]["paper_ordering"] = ordering_holds(document[test]["joint_rmse"])
+        ukf = comparison.runs.get("ukf")
+        if ukf is not None and ukf.ok and ukf.outcomes and test in ukf.outcomes[0].events:
+            document[test]["ukf_events"] = dict(ukf.outcomes[0].events[test])
     document["published"] = published_rows()
     return reporting.to_jsonable(document)
 
@@ -338,6 +341,11 @@ def summary_table(document: dict) -> str:
             cells.append("".join(f"{v:8.3f}" for v in values) if values is not None else f"{'-':>8}" * 3)
         note = "" if document["methods"][key]["status"] == "ok" else f"  ({document['methods'][key]['note']})"
         lines.append(f"{label:<{width}}" + "".join(f" {cell}" for cell in cells) + note)
+    for test in tests:
+        events = document[test].get("ukf_events")
+        if events is not None:
+            lines.append(f"UKF on the {test} test: {events['rejected']} readings rejected, {events['coasted']} samples "
+                         f"coasted through, {events['reinitialised']} re-initialisations")
     return "\n".join(lines)
 
 

@@ -25,7 +25,7 @@ from simulation.model.layout import HARDENING, LOAD_SCALE, STIFFNESS
 from estimators.ukf.model import CableModel
 from estimators.ukf.noise import ProcessNoise, encoder_noise
 from estimators.ukf.process import ProcessModel
-from estimators.ukf.run import initial_state, motor_readings
+from estimators.ukf.run import SampleLimits, initial_state, motor_readings, run_filter
 
 OWN_MODEL = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction",
              "quantization", "noise")
@@ -102,11 +102,19 @@ def test_a_prediction_that_blows_up_restarts_the_filter_from_the_next_reading(se
     _, test, _ = session
     log = MotorLog.from_recording(test).between(test.time[0], test.time[0] + 10.0)
     torques = log.motor_torques.copy()
-    torques[100] = 1e300              # a corrupt torque sample drives the motors to infinity
+    torques[100] = 1e300              # beyond the DAC clip: the filter holds the last good torque
     corrupt = MotorLog(time=log.time, motor_positions=log.motor_positions, motor_torques=torques)
-    with pytest.warns(RuntimeWarning, match="restarted 1 times"):
+    with pytest.warns(RuntimeWarning, match="held an earlier torque 1 times.*restarted 0 times"):
         estimates = fitted.predict(corrupt)
-    assert estimates.n_restarts == 1
+    assert (estimates.n_missing_torque, estimates.n_restarts) == (1, 0)
+    # without the torque bound the corrupt sample drives the motors to infinity: the filter
+    # keeps its last good estimate and restarts from the next reading
+    unbounded = SampleLimits(arm="left", motor_rate=fitted.limits_.motor_rate,
+                             encoder_slack=fitted.limits_.encoder_slack, torque=np.full(3, np.inf))
+    with pytest.warns(RuntimeWarning, match="re-initialised 1 times .non-finite prediction"):
+        estimates = run_filter(corrupt, fitted.model_, fitted.process_noise_, fitted.measurement_noise_,
+                               limits=unbounded)
+    assert estimates.n_restarts == 1 and estimates.reinitialisations[0][0] == 101
     assert np.all(np.isfinite(estimates.joints)) and np.all(np.isfinite(estimates.covariance))
 
 

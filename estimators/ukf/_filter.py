@@ -113,11 +113,75 @@ class BatchUnscentedKalmanFilter(UnscentedKalmanFilter):
         self._likelihood = None
         self._mahalanobis = None
 
-    def innovation_log_likelihood(self) -> float:
-        """Gaussian log-likelihood of the last innovation (faster than filterpy's scipy call)."""
+    def gated_update(self, z, threshold: float, max_inflation: float = 1.0) -> tuple[bool, float, float]:
+        """Update with ``z`` unless its innovation fails the chi-square gate; after :meth:`predict`.
+
+        The squared Mahalanobis distance ``d2 = y^T S^-1 y`` of the innovation ``y`` (``S = Pzz + R``
+        from the unscented transform) is compared with ``threshold``. Beyond it, the predicted
+        covariance is scaled by the smallest factor ``lambda`` (at most ``max_inflation``) that
+        brings ``y^T (lambda Pzz + R)^-1 y`` to the threshold: a reading a modestly overconfident
+        prediction cannot explain widens the prediction instead of being thrown away (the
+        measurement model is linear, so scaling the sigma spread scales ``Pzz`` and ``Pxz``
+        exactly). A reading that needs more is rejected and leaves the prediction untouched.
+
+        Returns
+        -------
+        (accepted, d2, lambda) with ``d2`` the distance before any scaling.
+        """
+        self.sigmas_h = self.hx_batch(self.sigmas_f)
+        zp, Pzz = unscented_transform(self.sigmas_h, self.Wm, self.Wc, None, self.z_mean, self.residual_z)
+        y = self.residual_z(z, zp)
+        Pxz = self.cross_variance(self.x, zp, self.sigmas_f, self.sigmas_h)
+        R = self.R
+        try:
+            S = Pzz + R
+            SI = self.inv(S)
+            d2 = float(y @ SI @ y)
+            scale, distance = 1.0, d2
+            for _ in range(60):         # doubling, then bisection on the monotone distance(lambda)
+                if not (np.isfinite(distance) and distance > threshold) or scale >= max_inflation:
+                    break
+                scale = min(2.0 * scale, max_inflation)
+                distance = float(y @ np.linalg.solve(scale * Pzz + R, y))
+            if scale > 1.0 and np.isfinite(distance) and distance <= threshold:
+                low, high = scale / 2.0, scale
+                for _ in range(20):
+                    middle = 0.5 * (low + high)
+                    if float(y @ np.linalg.solve(middle * Pzz + R, y)) > threshold:
+                        low = middle
+                    else:
+                        high = middle
+                scale = high
+                S = scale * Pzz + R
+                SI = self.inv(S)
+                distance = float(y @ SI @ y)
+        except np.linalg.LinAlgError:
+            return False, np.inf, 1.0
+        self.S, self.SI, self.y = S, SI, y
+        if not (np.isfinite(distance) and distance <= threshold * (1.0 + 1e-9)):
+            self.S, self.SI = Pzz + R, self.inv(Pzz + R)
+            return False, d2, 1.0
+        if scale > 1.0:
+            self.P = scale * self.P
+            Pxz = scale * Pxz
+        self.K = Pxz @ SI
+        self.x = self.state_add(self.x, self.K @ y)
+        self.P = self.P - self.K @ S @ self.K.T
+        self.P = 0.5 * (self.P + self.P.T)
+        self.z = np.array(z, dtype=float)
+        self.x_post = self.x.copy()
+        self.P_post = self.P.copy()
+        return True, d2, scale
+
+    def innovation_log_likelihood(self, max_distance: float = np.inf) -> float:
+        """Gaussian log-likelihood of the last innovation (faster than filterpy's scipy call).
+
+        ``max_distance`` caps the squared Mahalanobis distance (a rejected reading counts as one
+        at the gate, so that it neither rewards nor ruins a noise setting).
+        """
         y = self.y
         logdet = np.log(np.linalg.det(self.S)) if y.size != 3 else np.log(_det3(self.S))
-        return float(-0.5 * (y @ self.SI @ y + logdet + y.size * np.log(2.0 * np.pi)))
+        return float(-0.5 * (min(float(y @ self.SI @ y), max_distance) + logdet + y.size * np.log(2.0 * np.pi)))
 
 
 def _det3(a: np.ndarray) -> float:

@@ -43,12 +43,14 @@ from simulation.identification import (
     as_motor_log,
     identify,
 )
+from simulation.identification.motor_log import MOTOR_POSITION_COLUMNS, MOTOR_TORQUE_COLUMNS
 from simulation.model.parameters import RavenParameters
+from simulation.recordings.dataset import CalibrationDataset
 
 from estimators.ukf.model import CableModel
 from estimators.ukf.noise import ProcessNoise, encoder_noise, physical_process_noise
 from estimators.ukf.process import MAX_STEP, REFRESH
-from estimators.ukf.run import JointEstimates, UKFSettings, run_filter
+from estimators.ukf.run import JointEstimates, SampleLimits, UKFSettings, check_log_rate, run_filter
 
 TUNING_CRITERIA = ("likelihood", "joint_error", "none")
 
@@ -74,7 +76,27 @@ class UKFJointEstimator(BaseEstimator):
     alpha, beta, kappa : sigma-point parameters.
     max_step : longest integration sub-step of the process model (s).
     refresh : sub-steps between fresh evaluations of inertia, gravity and the cable law.
-    max_gap : a log gap longer than this restarts the filter (s).
+    max_gap : a log gap, or a run of unusable readings, longer than this re-initialises the filter (s).
+    gate_probability : chi-square probability (3 degrees of freedom) of the innovation gate: a
+        reading whose squared Mahalanobis distance exceeds ``chi2.ppf(gate_probability, 3)`` is
+        rejected (21.1 at 0.9999; 1.0 turns the gate off).
+    max_inflation : largest factor on the predicted covariance that may bring a reading beyond the
+        gate inside it (the model's prediction was overconfident); a reading needing more is
+        rejected. 1 makes the gate a plain rejection test.
+    max_rejections : readings rejected in a row before the filter re-initialises from the readings.
+    covariance_calibration : scale the reported joint variances so that, on the fit log's tuning
+        window (which has ground truth), the mean squared joint error over the variance is 1 per
+        joint (``covariance_scale_``). The filter's own joint covariance is far too small: the
+        joints are seen only through the cable model, whose friction and stretch it takes as exact
+        (on its own model class the shoulder and elbow errors are 12-17x its standard deviation). The
+        estimates are unchanged; without ground truth the scale is 1.
+    coast_noise_scale : factor on the process covariance over steps without a usable reading (1:
+        the tuned noise; larger widens the reported spread while coasting).
+
+    Bad samples are handled as :mod:`estimators.ukf.run` describes: implausible and gated readings
+    are rejected, missing or flagged ones coasted through, divergence re-initialises; the
+    :class:`~estimators.ukf.run.JointEstimates` carry per-sample codes and the counts, and one
+    :class:`~estimators.ukf.run.UKFFaultWarning` per log gives them.
 
     Attributes
     ----------
@@ -82,6 +104,9 @@ class UKFJointEstimator(BaseEstimator):
     model_ : CableModel the filter runs.
     process_noise_ : ProcessNoise in use.
     measurement_noise_ : (3, 3) measurement covariance (motor coordinates).
+    covariance_scale_ : (3,) factor on the reported joint variances (see ``covariance_calibration``).
+    limits_ : SampleLimits bounding readings and torques (the arm's RE40 motors and DAC clip).
+    arm_ : the arm of the calibration log; logs of the other arm are refused.
     tuning_history_ : list of (log10 densities, objective) of every tuning run.
     """
 
@@ -89,7 +114,9 @@ class UKFJointEstimator(BaseEstimator):
                  identification_options: dict | None = None, process_noise: ProcessNoise | None = None,
                  measurement_noise=None, tuning: str = "likelihood", tuning_seconds: float = 120.0,
                  tuning_evaluations: int = 40, payload_kg: float = 0.0, alpha: float = 1.0, beta: float = 2.0,
-                 kappa: float = 0.0, max_step: float = MAX_STEP, refresh: int = REFRESH, max_gap: float = 1.0):
+                 kappa: float = 0.0, max_step: float = MAX_STEP, refresh: int = REFRESH, max_gap: float = 1.0,
+                 gate_probability: float = 0.9999, max_inflation: float = 10.0, max_rejections: int = 10,
+                 coast_noise_scale: float = 1.0, covariance_calibration: bool = True):
         self.effects = effects
         self.fixed = fixed
         self.base_parameters = base_parameters
@@ -106,6 +133,11 @@ class UKFJointEstimator(BaseEstimator):
         self.max_step = max_step
         self.refresh = refresh
         self.max_gap = max_gap
+        self.gate_probability = gate_probability
+        self.max_inflation = max_inflation
+        self.max_rejections = max_rejections
+        self.coast_noise_scale = coast_noise_scale
+        self.covariance_calibration = covariance_calibration
 
     # ---- settings ------------------------------------------------------------------------
 
@@ -116,8 +148,19 @@ class UKFJointEstimator(BaseEstimator):
                 raise ValueError(f"{name} must be positive, got {value!r}")
         if int(self.refresh) < 1:
             raise ValueError(f"refresh must be >= 1, got {self.refresh!r}")
+        if not 0.0 < self.gate_probability <= 1.0:
+            raise ValueError(f"gate_probability must be in (0, 1], got {self.gate_probability!r}")
+        if not (np.isfinite(self.max_inflation) and self.max_inflation >= 1.0):
+            raise ValueError(f"max_inflation must be a finite number >= 1, got {self.max_inflation!r}")
+        if int(self.max_rejections) < 1:
+            raise ValueError(f"max_rejections must be >= 1, got {self.max_rejections!r}")
+        if not (np.isfinite(self.coast_noise_scale) and self.coast_noise_scale >= 1.0):
+            raise ValueError(f"coast_noise_scale must be a finite number >= 1, got {self.coast_noise_scale!r}")
         return UKFSettings(alpha=float(self.alpha), beta=float(self.beta), kappa=float(self.kappa),
-                           max_step=float(self.max_step), refresh=int(self.refresh), max_gap=float(self.max_gap))
+                           max_step=float(self.max_step), refresh=int(self.refresh), max_gap=float(self.max_gap),
+                           gate_probability=float(self.gate_probability),
+                           max_inflation=float(self.max_inflation), max_rejections=int(self.max_rejections),
+                           coast_noise_scale=float(self.coast_noise_scale))
 
     def _measurement_covariance(self, model: CableModel) -> np.ndarray:
         if self.measurement_noise is None:
@@ -144,7 +187,10 @@ class UKFJointEstimator(BaseEstimator):
         """
         if self.tuning not in TUNING_CRITERIA:
             raise ValueError(f"tuning must be one of {TUNING_CRITERIA}, got {self.tuning!r}")
+        if isinstance(log, CalibrationDataset) and log.n_invalid:
+            log = log.select(log.valid_mask())      # flagged rows hold values no robot produces
         log = as_motor_log(log)
+        check_log_rate(log.time)
         settings = self._settings()
         base = self.base_parameters if self.base_parameters is not None else RavenParameters(arm=log.arm)
         options = dict(self.identification_options or {})
@@ -160,10 +206,13 @@ class UKFJointEstimator(BaseEstimator):
         needs_log = self.process_noise is None and self.tuning != "none"
         if needs_log and log is None:
             raise ValueError("noise tuning needs a log; pass one, or process_noise, or tuning='none'")
+        if isinstance(log, CalibrationDataset) and log.n_invalid:
+            log = log.select(log.valid_mask())
         return self._finish_fit(result, None if log is None else as_motor_log(log), self._settings())
 
     def _finish_fit(self, result: IdentificationResult, log: MotorLog | None, settings: UKFSettings):
         model = CableModel.from_parameters(result.parameters, result.offsets, self.payload_kg)
+        limits = SampleLimits.from_constants(result.parameters.constants, result.parameters.arm)
         measurement = self._measurement_covariance(model)
         self.tuning_history_ = []
         if self.process_noise is not None:
@@ -174,15 +223,20 @@ class UKFJointEstimator(BaseEstimator):
             period = float(np.median(np.diff(log.time))) if log is not None and len(log) > 1 else 1.0 / 30.0
             noise = physical_process_noise(model, result.report.torque_rmse, result.report.joint_rmse, period)
             if self.tuning != "none":
-                noise = self._tune(noise, model, measurement, log, settings)
+                noise = self._tune(noise, model, measurement, log, settings, limits)
         self.identification_ = result
+        self.arm_ = result.parameters.arm
+        self.limits_ = limits
         self.model_ = model
         self.process_noise_ = noise
         self.measurement_noise_ = measurement
+        self.covariance_scale_ = np.ones(3)
+        if self.covariance_calibration and log is not None and log.has_truth:
+            self.covariance_scale_ = self._covariance_scale(log, settings)
         return self
 
     def _tune(self, start: ProcessNoise, model: CableModel, measurement: np.ndarray, log: MotorLog,
-              settings: UKFSettings) -> ProcessNoise:
+              settings: UKFSettings, limits: SampleLimits) -> ProcessNoise:
         if not (np.isfinite(self.tuning_seconds) and self.tuning_seconds > 0):
             raise ValueError(f"tuning_seconds must be positive, got {self.tuning_seconds!r}")
         window = log.between(log.time[0], log.time[0] + float(self.tuning_seconds))
@@ -196,7 +250,7 @@ class UKFJointEstimator(BaseEstimator):
 
         def objective(vector):
             noise = ProcessNoise.from_vector(vector)
-            estimates = run_filter(window, model, noise, measurement, settings, warn=False,
+            estimates = run_filter(window, model, noise, measurement, settings, warn=False, limits=limits,
                                    likelihood=self.tuning == "likelihood")
             if self.tuning == "likelihood":
                 value = -estimates.log_likelihood / len(window)
@@ -215,6 +269,19 @@ class UKFJointEstimator(BaseEstimator):
         best = min(self.tuning_history_, key=lambda item: item[1])[0] if self.tuning_history_ else solution.x
         return ProcessNoise.from_vector(best)
 
+    def _covariance_scale(self, log: MotorLog, settings: UKFSettings) -> np.ndarray:
+        """Mean over the tuning window (after its first second) of squared joint error over variance."""
+        window = log.between(log.time[0], log.time[0] + float(self.tuning_seconds))
+        if len(window) < 10:
+            return np.ones(3)
+        estimates = run_filter(window, self.model_, self.process_noise_, self.measurement_noise_, settings,
+                               limits=self.limits_, warn=False)
+        settled = window.time >= window.time[0] + 1.0
+        variance = np.einsum("nii->ni", estimates.covariance)[settled]
+        ratio = (estimates.joints - window.joints)[settled] ** 2 / variance
+        scale = np.mean(ratio, axis=0) if ratio.shape[0] else np.ones(3)
+        return np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+
     # ---- filtering -----------------------------------------------------------------------
 
     def predict(self, log, *, eigenvalues: bool = False) -> JointEstimates:
@@ -222,18 +289,46 @@ class UKFJointEstimator(BaseEstimator):
 
         Parameters
         ----------
-        log : CalibrationDataset, Recording or MotorLog (ground truth not needed). NaN motor
-            readings skip their update, NaN torques reuse the last valid one, gaps are predicted
-            across (restart after ``max_gap``); all counted in a RuntimeWarning.
+        log : CalibrationDataset, Recording or MotorLog of the calibration log's arm (ground truth
+            not needed). Time in seconds at a RAVEN-II log rate. Rows a dataset flags (``valid``
+            False) and non-finite readings are coasted through, NaN or implausible torques
+            replaced by the last good one, implausible and gated readings rejected, gaps
+            predicted across (re-initialisation after ``max_gap``); all counted in the result and
+            in one :class:`~estimators.ukf.run.UKFFaultWarning`.
         eigenvalues : also record the smallest eigenvalue of the full state covariance at every
             sample (positive definiteness check).
 
         Returns
         -------
         JointEstimates
-            ``joints`` (N, 3) rad, rad, m and ``covariance`` (N, 3, 3) at every log sample.
+            ``joints`` (N, 3) rad, rad, m and ``covariance`` (N, 3, 3) at every log sample, the
+            sample codes ``flags`` and the counts (``events``).
+
+        Raises
+        ------
+        ValueError
+            The log is of the other arm, its time is not in seconds, or it has no usable reading.
         """
         check_is_fitted(self, "model_")
-        log = as_motor_log(log)
+        log, valid = _filter_input(log)
+        arm = getattr(self, "arm_", log.arm)
+        if log.arm != arm:
+            raise ValueError(f"the log is of the {log.arm} arm, but the filter's model was identified on the {arm} arm")
         return run_filter(log, self.model_, self.process_noise_, self.measurement_noise_, self._settings(),
-                          eigenvalues=eigenvalues)
+                          valid=valid, limits=getattr(self, "limits_", None),
+                          covariance_scale=getattr(self, "covariance_scale_", None), eigenvalues=eigenvalues)
+
+
+def _filter_input(source) -> tuple[MotorLog, np.ndarray]:
+    """The motor signals of a log and its usable-row mask; infinite values (in flagged rows) become NaN."""
+    if not isinstance(source, CalibrationDataset):
+        log = as_motor_log(source)
+        return log, np.ones(len(log), dtype=bool)
+    table = source.table
+    with np.errstate(invalid="ignore"):
+        positions = np.array(table.loc[:, list(MOTOR_POSITION_COLUMNS)].to_numpy(dtype=float))
+        torques = np.array(table.loc[:, list(MOTOR_TORQUE_COLUMNS)].to_numpy(dtype=float))
+    positions[np.isinf(positions)] = np.nan
+    torques[np.isinf(torques)] = np.nan
+    log = MotorLog(time=source.time, motor_positions=positions, motor_torques=torques, arm=source.arm)
+    return log, source.valid_mask()

@@ -146,8 +146,11 @@ class UKFOnSamples:
         """Filter each recording of the samples from its start; joints 1-3 (N, 3), SI."""
         self._check(samples)
         out = np.empty((len(samples), 3))
+        self.events_ = {"rejected": 0, "coasted": 0, "reinitialised": 0}     # summed over the recordings
         for rows in samples.recordings():
-            joints = np.asarray(self.filter_.predict(samples.dataset.select(rows)).joints, dtype=np.float64)
+            estimates = self.filter_.predict(samples.dataset.select(rows))
+            self.events_ = {key: count + estimates.events[key] for key, count in self.events_.items()}
+            joints = np.asarray(estimates.joints, dtype=np.float64)
             if joints.ndim != 2 or joints.shape[0] != rows.size or joints.shape[1] < 3:
                 raise ValueError(f"the UKF returned estimates of shape {joints.shape}; expected ({rows.size}, >=3)")
             if not np.all(np.isfinite(joints[:, :3])):

@@ -34,6 +34,8 @@ class FitOutcome:
     fit_seconds, predict_seconds : wall-clock times of ``fit`` and of all ``predict`` calls.
     error : None, or the failure's message (the traceback's last line).
     warnings : distinct warnings the method raised (at most :data:`MAX_WARNINGS`).
+    events : test name -> the estimator's ``events_`` after predicting it (the UKF's counts of
+        rejected, coasted and re-initialised samples), for estimators that keep them.
     """
 
     key: str
@@ -44,6 +46,7 @@ class FitOutcome:
     predict_seconds: float = 0.0
     error: str | None = None
     warnings: tuple[str, ...] = ()
+    events: Mapping[str, dict] = field(default_factory=dict)
 
 
 MAX_WARNINGS = 5
@@ -69,14 +72,18 @@ def fit_and_score(method: Method, seed: int, train: Samples, tests: Mapping[str,
             start = time.perf_counter()
             estimator.fit(train)
             fitted = time.perf_counter()
-            predictions = {name: estimator.predict(test) for name, test in tests.items()}
+            predictions, events = {}, {}
+            for name, test in tests.items():
+                predictions[name] = estimator.predict(test)
+                if getattr(estimator, "events_", None) is not None:
+                    events[name] = dict(estimator.events_)
             predicted = time.perf_counter()
         except Exception as error:  # noqa: BLE001 - reported per method, see docstring
             last = traceback.format_exception_only(type(error), error)[-1].strip()
             return FitOutcome(method.key, seed, error=last, warnings=_distinct(caught))
     scores = {name: score(predictions[name], test) for name, test in tests.items()}
     return FitOutcome(method.key, seed, scores, predictions if keep_predictions else {},
-                      fitted - start, predicted - fitted, warnings=_distinct(caught))
+                      fitted - start, predicted - fitted, warnings=_distinct(caught), events=events)
 
 
 @dataclass(frozen=True)
