@@ -7,7 +7,8 @@ predictors for a servo loop (`to_realtime`) or to dependency-free C for the real
 controller (`export_c`). A calibrator file that was edited, truncated or corrupted is refused with
 `CalibratorFileError`, never loaded silently different.
 
-The model-based baseline `UKFJointEstimator` (with `ProcessNoise` and `JointEstimates`) lives in
+The model-based baseline `UKFJointEstimator` (with `ProcessNoise`, `JointEstimates` and
+`UKFFaultWarning`) lives in
 the sub-package `estimators.ukf` and needs the simulator's model layer and identification (numba,
 casadi); it is loaded on first access of one of its names (a module ``__getattr__``, PEP 562), so
 ``import estimators`` alone loads neither the simulator nor casadi.
@@ -38,6 +39,7 @@ __all__ = [
     "TwoPhaseCalibrator",
     "JointEstimates",
     "ProcessNoise",
+    "UKFFaultWarning",
     "UKFJointEstimator",
     "WindowLSTMCalibrator",
     "WindowLinearCalibrator",
@@ -49,7 +51,7 @@ __all__ = [
 ]
 
 _UKF_NAMES = {"UKFJointEstimator": "estimators.ukf.estimator", "ProcessNoise": "estimators.ukf.noise",
-              "JointEstimates": "estimators.ukf.run"}
+              "JointEstimates": "estimators.ukf.run", "UKFFaultWarning": "estimators.ukf.run"}
 
 
 def __getattr__(name):

@@ -51,9 +51,8 @@ from estimators.ukf._filter import BatchUnscentedKalmanFilter, sigma_points
 from estimators.ukf.model import N_STATE, CableModel
 from estimators.ukf.noise import ProcessNoise
 from estimators.ukf.process import MAX_STEP, REFRESH, ProcessModel
+from simulation.identification.samples import GAP_FACTOR
 
-GAP_FACTOR = 2.5
-"""A step longer than this many median log periods counts as a gap."""
 INITIAL_SPREAD = np.array([0.05, 0.05, 0.005, 2e-3, 2e-3, 1e-4, 0.05, 0.05, 0.005])
 """Initial standard deviations of u', q, q' (joint units): at rest within a few cm/s or deg/s, the
 joints within the stretch that friction leaves undetermined (a tenth of a degree, 0.1 mm)."""
