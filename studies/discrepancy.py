@@ -115,15 +115,16 @@ REPORT_UNITS = {"rad": ("deg", 180.0 / np.pi), "m": ("mm", 1000.0), "rad/h": ("d
 """SI units of parameter values shown in degrees or millimetres in ``report.md`` (others stay SI)."""
 
 
-def _value_labels(size: int, joint_names) -> list[str]:
-    """What each value of a parameter block refers to: a joint, a pair of joints, or a homing and a joint."""
+def _value_labels(size: int, joint_names, block: str = "") -> list[str]:
+    """What each value of a parameter block refers to: a joint, a pair of joints, or a homing (second,
+    third ... of the record: registration offsets relative to the first) and a joint."""
     j = len(joint_names)
+    if block == "offset" and size % j == 0:
+        return [f"homing {k + 2} of the record, {joint_names[i]}" for k in range(size // j) for i in range(j)]
     if size == j:
         return list(joint_names)
     if size == j * (j - 1):
         return [f"{joint_names[r]} from {joint_names[c]}" for r in range(j) for c in range(j) if r != c]
-    if size % j == 0:
-        return [f"homing {k + 2}, {joint_names[i]}" for k in range(size // j) for i in range(j)]
     return [str(i) for i in range(size)]
 
 
@@ -135,11 +136,12 @@ def parameter_rows(fitted: dict, units: dict, joint_names, truth: dict | None = 
             values = np.atleast_1d(np.asarray(values, dtype=float))
             block_units = units.get(effect, {}).get(block, [""] * values.size)
             true = None if truth is None or truth.get(effect) is None else truth[effect].get(block)
-            for i, (label, value, unit) in enumerate(zip(_value_labels(values.size, joint_names), values, block_units)):
+            labels = _value_labels(values.size, joint_names, block)
+            for i, (label, value, unit) in enumerate(zip(labels, values, block_units)):
                 shown, factor = REPORT_UNITS.get(unit, (unit, 1.0))
                 row = [effect, block, label, value * factor]
                 if truth is not None:
-                    row.append(np.asarray(true, dtype=float).ravel()[i] * factor if true is not None else "not one value")
+                    row.append("not one value" if true is None else np.asarray(true, dtype=float).ravel()[i] * factor)
                 rows.append(row + [shown or "1"])
     return rows
 
@@ -403,7 +405,8 @@ def sweep(effects, seeds, duration: float, out: Path) -> dict:
             result, *_ = analyse_measured(path)
             fit = oracle(path, hidden)
         before = pooled_rmse(result.residual_before.joints, result.units)
-        oracle_shrink = float(1.0 - pooled_rmse(fit.residual_after.joints, result.units) / before) if before > 0 else 0.0
+        after = pooled_rmse(fit.residual_after.joints, result.units)
+        oracle_shrink = float(1.0 - after / before) if before > 0 else 0.0
         named = result.named_effects[0] if result.named_effects else ("unexplained" if result.unexplained else "none")
         return effect, seed, named, list(result.named_effects), float(result.shrink), oracle_shrink
 
@@ -421,7 +424,8 @@ def sweep(effects, seeds, duration: float, out: Path) -> dict:
         "",
         markdown_table(["hidden \\ named"] + columns, rows, digits=0), "",
         "## Runs (shrink: held-out pooled RMSE, deg and mm; oracle: the true structure fitted)", "",
-        markdown_table(["hidden", "seed", "named", "shrink %", "oracle shrink %", "of oracle"], run_rows, digits=1), ""])
+        markdown_table(["hidden", "seed", "named", "shrink %", "oracle shrink %", "of oracle"], run_rows, digits=1),
+        ""])
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "confusion.md", text)
     document = {"effects": list(effects), "seeds": list(seeds), "duration_s": duration, "columns": columns,

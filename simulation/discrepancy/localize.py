@@ -2,8 +2,8 @@
 
 Bins the residual of each joint by the variables an effect would depend on: the direction and
 speed of motion, the gravity (and payload) load, the configuration, the accumulated travel (the
-operating time of the cables: joint travel since the start of the record) and the homing count, and reports the mean and RMS
-per bin. A residual whose mean flips with the direction of motion points at backlash or dry
+operating time of the cables: joint travel since the start of the record) and the homing count, and
+reports the mean and RMS per bin. A residual whose mean flips with the direction of motion points at backlash or dry
 friction, one that grows with speed at viscous friction, with load at gravity stretch, with
 travel at fatigue, with homings at the registration.
 """

@@ -17,19 +17,22 @@ import numpy as np
 
 RAVEN_JOINTS = ("shoulder", "elbow", "insertion")
 RAVEN_UNITS = ("rad", "rad", "m")
+ACCELERATION_WINDOW = 7
+"""Samples (present and past) the accelerations are fitted over (see :attr:`MeasuredSignals.acceleration`)."""
 
 
-def _causal_derivative(values: np.ndarray, time: np.ndarray, window: int) -> np.ndarray:
+def _causal_derivative(values: np.ndarray, time: np.ndarray, window: int, order: int = 2) -> np.ndarray:
     """Time derivative of each column from the present and past samples only (no look-ahead).
 
-    At each sample a quadratic (a line for ``window <= 2``) is fitted by least squares to the last
-    ``window`` samples at their actual times, and its slope at the present sample is the
-    derivative: exact for motion up to that order, so it does not lag a smooth motion as a trailing
-    moving average would, while ``window > 3`` averages encoder noise. Before the first sample the
-    record is taken as at rest (the first value held), so the first derivative is zero.
+    At each sample a polynomial of ``order`` (a line for ``window <= 2``) is fitted by least squares
+    to the last ``window`` samples at their actual times, and its slope at the present sample is
+    the derivative. With ``order=2`` it is exact for motion up to that order, so it does not lag a
+    smooth motion as a trailing moving average would; with ``order=1`` the slope is the window's
+    mean slope, less noisy but late by half the window. Before the first sample the record is taken
+    as at rest (the first value held), so the first derivative is zero.
     """
     window = max(int(window), 2)
-    order = 1 if window <= 2 else 2
+    order = 1 if window <= 2 else order
     n = values.shape[0]
     step = float(np.median(np.diff(time))) if n > 1 else 1.0
     pad = window - 1
@@ -62,7 +65,7 @@ class MeasuredSignals:
     kind : "raven" (motor-side data and a cable model) or "generic".
     arm : "left" or "right" for RAVEN-II data.
     tool_joints : (N, 3) reported tool joints J3..J5 (rad) for the kinematics, RAVEN-II only.
-    smoothing : samples (present and past) each derivative is fitted over; derivatives never look
+    smoothing : samples (present and past) each velocity is fitted over; no derivative looks
         ahead, so a replay at a sample uses nothing measured after it.
     travel, loaded_travel : accumulated joint travel (and payload-weighted travel) since the start
         of the record; computed on construction unless given (a selection keeps the session's).
@@ -125,8 +128,11 @@ class MeasuredSignals:
 
     @cached_property
     def acceleration(self) -> np.ndarray:
-        """Joint acceleration, the causal derivative of :attr:`velocity` (rad/s^2, m/s^2)."""
-        return _causal_derivative(self.velocity, self.time, self.smoothing)
+        """Joint acceleration (rad/s^2, m/s^2): the mean slope of :attr:`velocity` over the present
+        and the ``ACCELERATION_WINDOW - 1`` samples before it (causal; a second lag-free derivative
+        would double the encoders' noise in the inertial loads, which matters more than its lag of
+        about a tenth of a second at 30 Hz)."""
+        return _causal_derivative(self.velocity, self.time, ACCELERATION_WINDOW, order=1)
 
     @cached_property
     def drive_velocity(self) -> np.ndarray:
@@ -135,7 +141,8 @@ class MeasuredSignals:
 
     @cached_property
     def drive_acceleration(self) -> np.ndarray:
-        return _causal_derivative(self.drive_velocity, self.time, self.smoothing)
+        """Acceleration of the transmission's input, causal like :attr:`acceleration`."""
+        return _causal_derivative(self.drive_velocity, self.time, ACCELERATION_WINDOW, order=1)
 
     def cumulative_motion(self, per_kg: float = 0.0) -> np.ndarray:
         """Accumulated joint travel since the start of the record (rad, rad, m), optionally load-weighted.
