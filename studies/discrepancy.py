@@ -135,13 +135,15 @@ def parameter_rows(fitted: dict, units: dict, joint_names, truth: dict | None = 
         for block, values in blocks.items():
             values = np.atleast_1d(np.asarray(values, dtype=float))
             block_units = units.get(effect, {}).get(block, [""] * values.size)
-            true = None if truth is None or truth.get(effect) is None else truth[effect].get(block)
+            true = None if truth is None else truth.get(effect)
+            true = true.get(block) if isinstance(true, dict) else true
             labels = _value_labels(values.size, joint_names, block)
             for i, (label, value, unit) in enumerate(zip(labels, values, block_units)):
                 shown, factor = REPORT_UNITS.get(unit, (unit, 1.0))
                 row = [effect, block, label, value * factor]
                 if truth is not None:
-                    row.append("not one value" if true is None else np.asarray(true, dtype=float).ravel()[i] * factor)
+                    row.append("-" if true is None else true if isinstance(true, str)
+                               else np.asarray(true, dtype=float).ravel()[i] * factor)
                 rows.append(row + [shown or "1"])
     return rows
 
@@ -338,13 +340,19 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
     oracle_after = float(np.sqrt(np.mean(np.square(fit.gap_after * to_report))))
     oracle_shrink = float(1.0 - oracle_after / before) if before > 0 else 0.0
     fraction = float(result.shrink / oracle_shrink) if oracle_shrink > 0 else None
-    truth = {name: true_values(generator, name) for name in set(hidden) | set(result.named_effects)}
+    def truth_of(name):
+        if not generator.is_enabled(name):
+            return "absent from the generator"
+        return true_values(generator, name) or "drawn at each homing"
+
+    named = set(hidden) | set(result.named_effects) | set(fit.named_effects)
+    truth = {name: truth_of(name) for name in named}
     document.update({
         "hidden_effect": list(hidden),
         "seed": seed,
         "duration_s": duration,
         "generator_structure": list(generator.enabled_effects),
-        "true_parameters": to_jsonable({k: v for k, v in truth.items() if v is not None}),
+        "true_parameters": to_jsonable({k: v for k, v in truth.items() if isinstance(v, dict)}),
         "oracle_gap_after": [float(v) for v in fit.gap_after],
         "oracle_shrink": oracle_shrink,
         "oracle_fitted_parameters": to_jsonable(fit.fitted_parameters),
