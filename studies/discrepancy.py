@@ -53,6 +53,7 @@ from studies.common.discrepancy_runs import (
     read_measured,
     run_ablation,
     run_on_dvrk,
+    run_on_raven_dataset,
     true_values,
     write_measured,
 )
@@ -313,16 +314,18 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
     return [json_path, md_path, *figures]
 
 
-def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None):
+def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left"):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     Returns the result, signals and split. ``shown_path`` is the input's name in the report (where
-    the file will be once published); the analysis reads ``path`` and nothing else.
+    the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
+    records its own). The analysis reads ``path`` and nothing else
+    (:func:`~studies.common.discrepancy_runs.analyse_measured`).
     """
     import time
 
     clock = time.perf_counter()
-    result, signals, split = analyse_measured(path)
+    result, signals, split = analyse_measured(path) if arm == "left" else run_on_raven_dataset(read_measured(path, arm))
     source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
               "description": f"RAVEN-II data {Path(shown_path or path).name}"}
     write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s)
@@ -459,6 +462,8 @@ def main(argv=None) -> int:
     parser.add_argument("--seeds", type=positive_int, default=3, help="seeds per effect for --sweep")
     parser.add_argument("--duration", type=positive_float, default=240.0, help="seconds of generated random motion")
     parser.add_argument("--joints", type=joint_numbers, default="4,5,6", help="dVRK joints (1-6) to study")
+    parser.add_argument("--arm", default="left", choices=("left", "right"),
+                        help="arm of --measured bags or CSV files (Parquet dataset files record theirs)")
     parser.add_argument("--out", type=Path, default=Path("results") / "discrepancy")
     with StudyRun(parser, argv) as study:
         args = study.args
@@ -492,8 +497,8 @@ def main(argv=None) -> int:
             write_report(result, signals, split, source, study.folder, study.stop_clock(), (), "blind")
         else:
             with study.reading(args.measured):
-                read_measured(args.measured)  # an unreadable input is a one-line usage error, before any work
-            result, signals, split = analyse(args.measured, study.folder)
+                read_measured(args.measured, args.arm)  # an unreadable input is a one-line usage error, before any work
+            result, signals, split = analyse(args.measured, study.folder, arm=args.arm)
         study.publish()
     units = _unit_names(result.units)
     print(f"named effects: {', '.join(result.named_effects) or 'none'}; unexplained: {result.unexplained}")

@@ -190,13 +190,14 @@ def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: Workfl
                         exclude=exclude, base=base), signals, split
 
 
-def read_measured(path):
+def read_measured(path, arm: str = "left"):
     """The RAVEN-II dataset of a dataset file (``.parquet``, ``.csv``), a ROS bag or a folder of
-    either, without the rows flagged invalid."""
+    either, without the rows flagged invalid. ``arm`` is for bags and CSV files (a Parquet dataset
+    file records its arm)."""
     from simulation.recordings.dataset import CalibrationDataset
     from studies.common.data_sources import recorded_datasets
 
-    datasets, _ = recorded_datasets(path)
+    datasets, _ = recorded_datasets(path, arm)
     dataset = CalibrationDataset.concat(datasets) if len(datasets) > 1 else datasets[0]
     return dataset.select(dataset.valid_mask()) if dataset.n_invalid else dataset
 
