@@ -1,17 +1,28 @@
 """The model-discrepancy workflow from the command line: report, tables and plots.
 
     python studies/discrepancy.py --hidden-effect backlash --seed 0 --out results/discrepancy
+    python studies/discrepancy.py --measured results/discrepancy/measured.parquet --out results/again
     python studies/discrepancy.py --hidden-effect none
+    python studies/discrepancy.py --ablate coupling                 # the model lacks a term the data have
     python studies/discrepancy.py --measured ../shared/data/dvrk_hwang2020
-    python studies/discrepancy.py --measured recordings/          # bags or dataset files
-    python studies/discrepancy.py --sweep --seeds 3               # confusion matrix of hidden vs named
+    python studies/discrepancy.py --sweep --seeds 5                 # hidden vs named, with the oracle
 
-With ``--hidden-effect NAME`` the virtual RAVEN-II generates the "measured" data with its nominal
-structure plus NAME (``none``: nothing extra; several names separated by commas); the workflow
-starts from the nominal structure without NAME, identified from that data, and must find NAME.
-With ``--measured PATH`` it runs on recorded data: RAVEN-II bags or dataset files (a cable model
-identified from the data is the start), or the dVRK folder format (nominal model: measured
-joints = commanded joints; wrist joints 4-6 by default).
+``--measured PATH`` is the blind analysis. On RAVEN-II data (a dataset file ``.parquet``/``.csv``,
+ROS bags, or a folder of either) it always starts from the same structure, the cable model of
+``STARTING_STRUCTURE`` identified on the first half of the record, and screens the same library
+``LIBRARY`` (:mod:`studies.common.discrepancy_runs`); it takes no seed and knows nothing of how the
+data were made. On the dVRK folder format the start is the dVRK's own nominal model (measured joints
+= reported joints plus offsets; wrist joints 4-6 by default) with the generic library.
+
+``--hidden-effect NAME`` generates data with the virtual RAVEN-II: the starting structure plus NAME
+and nothing else (``none``: nothing; several names separated by commas; NAME from the library, or
+``capstan_runout``, which the library lacks). It writes them as ``DIR/measured.parquet`` and runs
+exactly the ``--measured`` analysis on that file. Only then, knowing the generator, it adds to the
+report the true parameters beside the fitted ones and the oracle: the generator's true structure
+fitted to the same fit part, whose held-out gap is what a model of the right structure closes. An
+effect of the starting structure cannot be hidden (the data would not change): ``--ablate NAME``
+instead generates with the full structure and analyses from the structure without NAME, with NAME
+among the candidates; that is an ablation, and its report says so.
 
 Every run writes ``DIR/report.json``, ``DIR/report.md`` and PNG plots, and exits 0 whenever the
 workflow ran, whatever it found; a mistake in the arguments or an unreadable input file gets one
@@ -21,16 +32,31 @@ line and exit status 2, before any work and with nothing written.
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 from pathlib import Path
 
 import numpy as np
 
-from simulation.discrepancy import LIBRARY_NAMES, DiscrepancyResult, localize, strongest_dependence
+from simulation.discrepancy import DiscrepancyResult, localize, strongest_dependence
 from simulation.discrepancy.signals import pooled_rmse, report_scale
-from simulation.model.effects import EFFECT_NAMES
-from simulation.recordings.dataset import CalibrationDataset
-from studies.common.data_sources import is_dvrk_folder, recorded_datasets
-from studies.common.discrepancy_runs import run_hidden_effect, run_on_dvrk, run_on_raven_dataset
+from studies.common.data_sources import is_dvrk_folder
+from studies.common.discrepancy_runs import (
+    ABLATION_CHOICES,
+    HIDDEN_CHOICES,
+    LIBRARY,
+    STARTING_STRUCTURE,
+    analyse_measured,
+    check_hidden,
+    generate_measured,
+    oracle,
+    read_measured,
+    run_ablation,
+    run_on_dvrk,
+    run_on_raven_dataset,
+    true_values,
+    write_measured,
+)
 from studies.common.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text
 from studies.common.runner import (
     StudyRun,
@@ -42,28 +68,28 @@ from studies.common.runner import (
 )
 
 STUDY = "discrepancy"
-HIDDEN_CHOICES = ("none",) + tuple(n for n in EFFECT_NAMES if n not in ("cable_stretch", "quantization", "noise",
-                                                                         "homing_offset"))
-SWEEP_EFFECTS = ("none", "backlash", "coulomb_friction", "viscous_friction", "hysteresis", "gravity_stretch",
-                 "coupling", "drift", "capstan_runout")
+SWEEP_EFFECTS = HIDDEN_CHOICES
+DVRK_STARTING_MODEL = "reported joints plus constant offsets (the dVRK's nominal model)"
 
 
 def parse_hidden(text: str) -> tuple[str, ...]:
-    """``"none"`` -> (); ``"backlash,coupling"`` -> ("backlash", "coupling"), with clear errors."""
+    """``"none"`` -> (); ``"backlash,drift"`` -> ("backlash", "drift"), refusing what cannot be hidden."""
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     if names == ("none",):
         return ()
-    unknown = [n for n in names if n not in HIDDEN_CHOICES or n == "none"]
-    if unknown or not names:
-        raise argparse.ArgumentTypeError(
-            f"unknown hidden effect {', '.join(unknown) or text!r}; choose 'none' or from {', '.join(HIDDEN_CHOICES[1:])}")
-    return names
+    if not names:
+        raise argparse.ArgumentTypeError(f"unknown hidden effect {text!r}; choose 'none' or from "
+                                         f"{', '.join(HIDDEN_CHOICES[1:])}")
+    try:
+        return check_hidden(names)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
-def read_raven_dataset(path: Path, arm: str = "left"):
-    """A RAVEN-II dataset from a bag, a folder of bags or dataset files, or one dataset file."""
-    datasets, _ = recorded_datasets(path, arm)
-    return CalibrationDataset.concat(datasets) if Path(path).is_dir() else datasets[0]
+def parse_ablated(text: str) -> str:
+    if text not in ABLATION_CHOICES:
+        raise argparse.ArgumentTypeError(f"cannot ablate {text!r}; choose from {', '.join(ABLATION_CHOICES)}")
+    return text
 
 
 def joint_numbers(text: str) -> tuple[int, ...]:
@@ -85,28 +111,80 @@ def _unit_names(units) -> list[str]:
     return ["deg" if u == "rad" else "mm" for u in units]
 
 
-def report_document(result: DiscrepancyResult, source: dict, runtime_s: float) -> dict:
-    """``report.json``: the issue's keys plus the iterations and the configuration."""
+REPORT_UNITS = {"rad": ("deg", 180.0 / np.pi), "m": ("mm", 1000.0), "rad/h": ("deg/h", 180.0 / np.pi),
+                "m/h": ("mm/h", 1000.0), "rad/rad": ("deg/deg", 1.0), "m/m": ("mm/mm", 1.0)}
+"""SI units of parameter values shown in degrees or millimetres in ``report.md`` (others stay SI)."""
+
+
+def _value_labels(size: int, joint_names, block: str = "") -> list[str]:
+    """What each value of a parameter block refers to: a joint, a pair of joints, or a homing (second,
+    third ... of the record: registration offsets relative to the first) and a joint."""
+    j = len(joint_names)
+    if block == "offset" and size % j == 0:
+        return [f"homing {k + 2} of the record, {joint_names[i]}" for k in range(size // j) for i in range(j)]
+    if size == j:
+        return list(joint_names)
+    if size == j * (j - 1):
+        return [f"{joint_names[r]} from {joint_names[c]}" for r in range(j) for c in range(j) if r != c]
+    return [str(i) for i in range(size)]
+
+
+def parameter_rows(fitted: dict, units: dict, joint_names, truth: dict | None = None) -> list[list]:
+    """Rows (effect, parameter, joint, fitted[, true], unit) in report units, one per value."""
+    rows = []
+    for effect, blocks in fitted.items():
+        for block, values in blocks.items():
+            values = np.atleast_1d(np.asarray(values, dtype=float))
+            block_units = units.get(effect, {}).get(block, [""] * values.size)
+            true = None if truth is None else truth.get(effect)
+            true = true.get(block) if isinstance(true, dict) else true
+            labels = _value_labels(values.size, joint_names, block)
+            for i, (label, value, unit) in enumerate(zip(labels, values, block_units)):
+                shown, factor = REPORT_UNITS.get(unit, (unit, 1.0))
+                row = [effect, block, label, value * factor]
+                if truth is not None:
+                    row.append("-" if true is None else true if isinstance(true, str)
+                               else np.asarray(true, dtype=float).ravel()[i] * factor)
+                rows.append(row + [shown or "1"])
+    return rows
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file (a folder: of its files in name order), so a report names exactly its input."""
+    digest = hashlib.sha256()
+    files = sorted(p for p in Path(path).rglob("*") if p.is_file()) if Path(path).is_dir() else [Path(path)]
+    for file in files:
+        digest.update(file.read_bytes())
+    return digest.hexdigest()
+
+
+def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
+                    starting_structure=STARTING_STRUCTURE, analysis: str = "blind") -> dict:
+    """``report.json``: what the analysis found, its starting point and library, the iterations."""
     return {
+        "analysis": analysis,
+        "starting_structure": list(starting_structure),
+        "library": list(result.library),
         "named_effects": list(result.named_effects),
         "unexplained": bool(result.unexplained),
         "gap_before": [float(v) for v in result.gap_before],
         "gap_after": [float(v) for v in result.gap_after],
         "shrink": float(result.shrink),
+        "signature": list(result.signature),
         "fitted_parameters": to_jsonable(result.fitted_parameters),
+        "parameter_units": to_jsonable(result.parameter_units),
         "units": list(result.units),
         "joints": list(result.joint_names),
         "gap_before_report_units": _scaled(result.gap_before, result.units),
         "gap_after_report_units": _scaled(result.gap_after, result.units),
         "report_units": _unit_names(result.units),
         "iterations": [
-            {"validation_gap": it.gap_before, "named": it.named,
+            {"validation_gap": it.gap_before, "fit_gap": it.fit_gap_before, "bic": it.bic_before, "named": it.named,
              "candidates": [{"name": s.name, "fitted": s.fitted, "validation_gap": s.validation_gap, "fit_gap": s.fit_gap,
                              "bic": s.bic, "screened_chi_square": s.screened_chi_square, "parameters": s.values}
                             for s in it.scores]}
             for it in result.iterations
         ],
-        "library": list(LIBRARY_NAMES),
         "source": source,
         "created": now_iso(),
         "runtime_s": round(runtime_s, 1),
@@ -127,11 +205,11 @@ def _plots(result: DiscrepancyResult, signals, split, out: Path) -> list[Path]:
     for j, ax in enumerate(np.atleast_1d(axes)):
         ax.plot(time_axis, result.residual_before.joints[:, j] * scale[j], lw=0.8, label="starting model")
         ax.plot(time_axis, result.residual_after.joints[:, j] * scale[j], lw=0.8, label="with named effects")
-        ax.set_ylabel(f"{result.joint_names[j]} ({units[j]})")
+        ax.set_ylabel(f"{result.joint_names[j]} residual ({units[j]})")
         ax.grid(alpha=0.3)
     np.atleast_1d(axes)[0].legend(loc="upper right")
-    np.atleast_1d(axes)[-1].set_xlabel("time (s)")
-    figure.suptitle("Held-out residual, measured minus model")
+    np.atleast_1d(axes)[-1].set_xlabel("time since the start of the record (s)")
+    figure.suptitle("Held-out part: residual (measured minus model) over time")
     figure.tight_layout()
     paths.append(out / "residual_over_time.png")
     figure.savefig(paths[-1], dpi=110)
@@ -145,11 +223,11 @@ def _plots(result: DiscrepancyResult, signals, split, out: Path) -> list[Path]:
     mask = split.fit | split.validation
     for j in range(signals.n_joints):
         axes[j, 0].scatter(velocity[mask, j] * scale[j], residual[mask, j] * scale[j], s=2, alpha=0.3)
-        axes[j, 0].set_xlabel(f"{result.joint_names[j]} speed ({units[j]}/s)")
-        axes[j, 0].set_ylabel(f"residual ({units[j]})")
+        axes[j, 0].set_xlabel(f"{result.joint_names[j]} velocity ({units[j]}/s)")
+        axes[j, 0].set_ylabel(f"{result.joint_names[j]} residual ({units[j]})")
         axes[j, 1].scatter(signals.travel[mask, j] * scale[j], residual[mask, j] * scale[j], s=2, alpha=0.3)
         axes[j, 1].set_xlabel(f"{result.joint_names[j]} accumulated travel ({units[j]})")
-    figure.suptitle("Residual of the starting model against speed and operating time")
+    figure.suptitle("Fit and validation parts: starting model's residual against velocity and accumulated travel")
     figure.tight_layout()
     paths.append(out / "residual_vs_variables.png")
     figure.savefig(paths[-1], dpi=110)
@@ -157,11 +235,22 @@ def _plots(result: DiscrepancyResult, signals, split, out: Path) -> list[Path]:
     return paths
 
 
-def write_report(result: DiscrepancyResult, signals, split, source: dict, out: Path, runtime_s: float) -> list[Path]:
+COLUMNS_EXPLAINED = """\
+Each iteration first shows the current model (candidate "(current model)"), then each candidate
+added to it. Columns: *fitted*: fitted in full (or only screened by a coarse scan of its
+parameters); *fit-part gap*, *validation gap*: pooled RMSE of measured minus model over the joints
+(degrees and millimetres together) on the fit part and on the validation part; *BIC*: the
+validation part's weighted squared residual (joints and motor torques, each weighted by the current
+model's misfit) plus k ln n for the candidate's k parameters; lower BIC is better. A candidate is
+named when its BIC is below the current model's and it cuts both gaps by at least 10 %."""
+
+
+def write_report(result: DiscrepancyResult, signals, split, source: dict, out: Path, runtime_s: float,
+                 starting_structure=STARTING_STRUCTURE, analysis: str = "blind") -> list[Path]:
     """Write ``report.json``, ``report.md`` and the plots of one workflow run in the folder ``out``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    document = report_document(result, source, runtime_s)
+    document = report_document(result, source, runtime_s, starting_structure, analysis)
     json_path = write_json(out / "report.json", document)
     units = _unit_names(result.units)
     before_state = result.model_before.replay(signals)
@@ -171,35 +260,51 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
             zip(result.joint_names, document["gap_before_report_units"], document["gap_after_report_units"], units)]
     iteration_rows = []
     for k, it in enumerate(result.iterations):
+        iteration_rows.append([str(k + 1), "(current model)", "", it.fit_gap_before, it.gap_before, it.bic_before, ""])
         for s in it.scores:
             iteration_rows.append([str(k + 1), s.name, "yes" if s.fitted else "screened only", s.fit_gap,
                                    s.validation_gap, s.bic, "named" if it.named == s.name else ""])
+    start = ", ".join(starting_structure) if starting_structure else DVRK_STARTING_MODEL
+    kind = "Ablation (the model lacks a term the data have)" if analysis == "ablation" else "Blind analysis"
+    parameter_table = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names)
     sections = [
         f"# Model discrepancy: {source.get('description', '')}",
         "",
+        f"{kind}. Starting structure: {start}. Candidates screened: {', '.join(result.library) or 'none'}.",
+        "",
         f"- named effects (in order): {', '.join(result.named_effects) or 'none'}",
         f"- unexplained residual left: {'yes' if result.unexplained else 'no'}",
-        f"- held-out gap shrink (pooled, deg and mm): {100 * result.shrink:.1f} %",
+        f"- held-out gap shrink (pooled RMSE, deg and mm): {100 * result.shrink:.1f} %",
         f"- run: {document['created']}, {runtime_s:.0f} s",
         "",
         "## Held-out gap per joint (RMSE, measured minus model)",
         "",
-        markdown_table(["joint", "before", "after"], rows),
+        markdown_table(["joint", "starting model", "with named effects"], rows),
         "",
         "## Candidates per iteration (gaps: pooled RMSE, deg and mm)",
+        "",
+        COLUMNS_EXPLAINED,
         "",
         markdown_table(["iteration", "candidate", "fitted", "fit-part gap", "validation gap", "BIC", ""], iteration_rows,
                        digits=4),
         "",
-        "## Where the starting model's residual is (spread of bin means, deg or mm)",
+        "## Where the starting model's residual is (fit and validation parts)",
+        "",
+        "The residual binned by each variable (quartiles; direction of motion; homing); the spread is the "
+        "largest minus the smallest bin mean, in degrees or millimetres: large means the residual depends on it.",
         "",
         markdown_table(list(dependence.columns), dependence.values.tolist(), digits=4),
         "",
-        "## Fitted parameters of the named effects (SI)",
+        "## Fitted parameters of the named effects",
         "",
-        "```",
-        "\n".join(f"{name}: {values}" for name, values in result.fitted_parameters.items()) or "(none)",
-        "```",
+        markdown_table(["effect", "parameter", "joint", "fitted", "unit"], parameter_table, digits=4)
+        if parameter_table else "(none named)",
+        "",
+        "## Signature of the unexplained residual (fit and validation parts)",
+        "",
+        "\n".join(f"- {s}" for s in result.signature) if result.signature else
+        ("(a residual is left but no term of the generic library stands out)" if result.unexplained
+         else "(nothing unexplained)"),
         "",
     ]
     figures = _plots(result, signals, split, out)
@@ -209,31 +314,135 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
     return [json_path, md_path, *figures]
 
 
+def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left"):
+    """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
+
+    Returns the result, signals and split. ``shown_path`` is the input's name in the report (where
+    the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
+    records its own). The analysis reads ``path`` and nothing else
+    (:func:`~studies.common.discrepancy_runs.analyse_measured`).
+    """
+    import time
+
+    clock = time.perf_counter()
+    result, signals, split = analyse_measured(path) if arm == "left" else run_on_raven_dataset(read_measured(path, arm))
+    source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
+              "description": f"RAVEN-II data {Path(shown_path or path).name}"}
+    write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s)
+    return result, signals, split
+
+
+def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,
+                            result: DiscrepancyResult) -> dict:
+    """After the blind analysis: add the hidden effect, the true parameters and the oracle to the report."""
+    report_path = Path(out) / "report.json"
+    document = json.loads(report_path.read_text())
+    fit = oracle(path, hidden)
+    to_report = report_scale(result.units)
+    before = pooled_rmse(result.residual_before.joints, result.units)
+    oracle_after = float(np.sqrt(np.mean(np.square(fit.gap_after * to_report))))
+    oracle_shrink = float(1.0 - oracle_after / before) if before > 0 else 0.0
+    fraction = float(result.shrink / oracle_shrink) if oracle_shrink > 0 else None
+    def truth_of(name):
+        if not generator.is_enabled(name):
+            return "absent from the generator"
+        return true_values(generator, name) or "drawn at each homing"
+
+    named = set(hidden) | set(result.named_effects) | set(fit.named_effects)
+    truth = {name: truth_of(name) for name in named}
+    document.update({
+        "hidden_effect": list(hidden),
+        "seed": seed,
+        "duration_s": duration,
+        "generator_structure": list(generator.enabled_effects),
+        "true_parameters": to_jsonable({k: v for k, v in truth.items() if isinstance(v, dict)}),
+        "oracle_gap_after": [float(v) for v in fit.gap_after],
+        "oracle_shrink": oracle_shrink,
+        "oracle_fitted_parameters": to_jsonable(fit.fitted_parameters),
+        "fraction_of_oracle_shrink": fraction,
+    })
+    write_json(report_path, document)
+    units = _unit_names(result.units)
+    rows = [[name, f"{b:.4f} {u}", f"{a:.4f} {u}", f"{o:.4f} {u}"] for name, b, a, o, u in
+            zip(result.joint_names, _scaled(result.gap_before, result.units), _scaled(result.gap_after, result.units),
+                _scaled(fit.gap_after, result.units), units)]
+    fitted_rows = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names, truth)
+    oracle_rows = parameter_rows(fit.fitted_parameters, fit.parameter_units, result.joint_names, truth)
+    section = [
+        "## What generated the data (added after the blind analysis)",
+        "",
+        f"Hidden effect: {', '.join(hidden) or 'none'} (seed {seed}, {duration:.0f} s of random motion); the "
+        f"generator's effects: {', '.join(generator.enabled_effects)}.",
+        "",
+        "The oracle fits the generator's true structure to the same fit part (the starting structure "
+        "identified as above, then the hidden effects added with their parameters fitted, never given): its "
+        "held-out gap is what a model of the right structure closes.",
+        "",
+        markdown_table(["joint", "starting model", "with named effects", "oracle"], rows),
+        "",
+        f"- shrink: workflow {100 * result.shrink:.1f} %, oracle {100 * oracle_shrink:.1f} %"
+        + (f"; the workflow reached {100 * fraction:.0f} % of the oracle's shrink" if fraction is not None else ""),
+        "",
+        "Named effects, fitted beside true values:",
+        "",
+        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit"], fitted_rows, digits=4)
+        if fitted_rows else "(none named)",
+        "",
+        "The oracle's fitted parameters beside the true values:",
+        "",
+        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit"], oracle_rows, digits=4)
+        if oracle_rows else "(nothing hidden)",
+        "",
+    ]
+    md = Path(out) / "report.md"
+    text = md.read_text()
+    cut = text.index("## Figures")
+    write_text(md, text[:cut] + "\n".join(section) + "\n" + text[cut:])
+    return document
+
+
 def sweep(effects, seeds, duration: float, out: Path) -> dict:
-    """Hide each effect with each seed; the confusion matrix of hidden vs named (first named)."""
+    """Hide each effect with each seed, through the file and the blind analysis, with the oracle:
+    the confusion matrix of hidden vs named (first named) and the shrink beside the oracle's."""
+    import tempfile
+
     from joblib import Parallel, delayed
 
     def one(effect, seed):
         hidden = () if effect == "none" else (effect,)
-        result, *_ = run_hidden_effect(hidden, seed=seed, duration=duration)
+        dataset, generator = generate_measured(hidden, seed, duration)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = write_measured(dataset, tmp)
+            result, *_ = analyse_measured(path)
+            fit = oracle(path, hidden)
+        before = pooled_rmse(result.residual_before.joints, result.units)
+        after = pooled_rmse(fit.residual_after.joints, result.units)
+        oracle_shrink = float(1.0 - after / before) if before > 0 else 0.0
         named = result.named_effects[0] if result.named_effects else ("unexplained" if result.unexplained else "none")
-        return effect, seed, named, list(result.named_effects), float(result.shrink)
+        return effect, seed, named, list(result.named_effects), float(result.shrink), oracle_shrink
 
     runs = Parallel(n_jobs=-1)(delayed(one)(e, s) for e in effects for s in seeds)
     columns = sorted({r[2] for r in runs} | set(effects) | {"unexplained"}, key=lambda n: (n != "none", n))
     matrix = {e: {c: sum(1 for r in runs if r[0] == e and r[2] == c) for c in columns} for e in effects}
     rows = [[e] + [matrix[e][c] for c in columns] for e in effects]
+    run_rows = [[e, str(s), ", ".join(n) or "none", 100 * k, 100 * o, f"{100 * k / o:.0f} %" if o > 0 else "-"]
+                for e, s, _, n, k, o in runs]
     text = "\n".join([
-        "# Hidden vs named effects", "",
-        f"Seeds {list(seeds)}, {duration:.0f} s of random motion per run; a row is the hidden effect, "
-        "a column the first effect the workflow named ('none': nothing named; 'unexplained': nothing named "
-        "but a residual left).", "",
+        "# Hidden vs named effects (blind analysis of generated files)", "",
+        f"Seeds {list(seeds)}, {duration:.0f} s of random motion per run; starting structure "
+        f"{', '.join(STARTING_STRUCTURE)}; library {', '.join(LIBRARY)}. A row is the hidden effect, a column the "
+        "first effect the workflow named ('none': nothing named; 'unexplained': nothing named but a residual left).",
+        "",
         markdown_table(["hidden \\ named"] + columns, rows, digits=0), "",
-        "Runs: " + "; ".join(f"{e} seed {s}: {n} (shrink {100 * k:.0f} %)" for e, s, _, n, k in runs), ""])
+        "## Runs (shrink: held-out pooled RMSE, deg and mm; oracle: the true structure fitted)", "",
+        markdown_table(["hidden", "seed", "named", "shrink %", "oracle shrink %", "of oracle"], run_rows, digits=1),
+        ""])
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "confusion.md", text)
     document = {"effects": list(effects), "seeds": list(seeds), "duration_s": duration, "columns": columns,
-                "matrix": matrix, "runs": [{"hidden": e, "seed": s, "named": n, "shrink": k} for e, s, _, n, k in runs]}
+                "starting_structure": list(STARTING_STRUCTURE), "library": list(LIBRARY), "matrix": matrix,
+                "runs": [{"hidden": e, "seed": s, "named_first": f, "named": n, "shrink": k, "oracle_shrink": o}
+                         for e, s, f, n, k, o in runs]}
     write_json(out / "confusion.json", document)
     print(text)
     return document
@@ -245,13 +454,16 @@ def main(argv=None) -> int:
     source.add_argument("--hidden-effect", type=parse_hidden, metavar="NAME",
                         help=f"'none' or effects to hide, comma-separated: {', '.join(HIDDEN_CHOICES[1:])}")
     source.add_argument("--measured", type=existing_path, metavar="PATH",
-                        help="recorded data: bag(s), dataset file(s), or the dVRK folder format")
+                        help="recorded data: a dataset file, bag(s), or the dVRK folder format (blind analysis)")
+    source.add_argument("--ablate", type=parse_ablated, metavar="NAME",
+                        help=f"ablation: the model lacks one of {', '.join(ABLATION_CHOICES)}")
     source.add_argument("--sweep", action="store_true", help="confusion matrix of hidden vs named effects")
-    parser.add_argument("--seed", type=non_negative_int, default=0)
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of generated data")
     parser.add_argument("--seeds", type=positive_int, default=3, help="seeds per effect for --sweep")
     parser.add_argument("--duration", type=positive_float, default=240.0, help="seconds of generated random motion")
     parser.add_argument("--joints", type=joint_numbers, default="4,5,6", help="dVRK joints (1-6) to study")
-    parser.add_argument("--arm", default="left", choices=("left", "right"))
+    parser.add_argument("--arm", default="left", choices=("left", "right"),
+                        help="arm of --measured bags or CSV files (Parquet dataset files record theirs)")
     parser.add_argument("--out", type=Path, default=Path("results") / "discrepancy")
     with StudyRun(parser, argv) as study:
         args = study.args
@@ -261,11 +473,18 @@ def main(argv=None) -> int:
             study.done()
             return 0
         if args.hidden_effect is not None:
-            result, signals, split, generator = run_hidden_effect(args.hidden_effect, seed=args.seed,
-                                                                  duration=args.duration)
-            source = {"kind": "simulated", "hidden": list(args.hidden_effect), "seed": args.seed,
-                      "duration_s": args.duration,
-                      "description": f"virtual RAVEN-II with hidden {', '.join(args.hidden_effect) or 'nothing'}"}
+            dataset, generator = generate_measured(args.hidden_effect, seed=args.seed, duration=args.duration)
+            path = write_measured(dataset, study.folder)
+            del dataset
+            result, signals, split = analyse(path, study.folder, shown_path=study.final(path))
+            add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result)
+        elif args.ablate is not None:
+            result, signals, split, generator = run_ablation(args.ablate, seed=args.seed, duration=args.duration,
+                                                             folder=study.folder)
+            source = {"kind": "simulated", "ablated": args.ablate, "seed": args.seed, "duration_s": args.duration,
+                      "description": f"ablation of {args.ablate} on the virtual RAVEN-II"}
+            structure = tuple(e for e in STARTING_STRUCTURE if e != args.ablate)
+            write_report(result, signals, split, source, study.folder, study.stop_clock(), structure, "ablation")
         elif is_dvrk_folder(args.measured):
             joints = tuple(j - 1 for j in args.joints)
             root = args.measured.parent if (args.measured / "q_des.npy").exists() else args.measured
@@ -275,12 +494,11 @@ def main(argv=None) -> int:
             source = {"kind": "dvrk", "path": str(args.measured), "joints": [j + 1 for j in joints],
                       "description": f"dVRK data of Hwang et al. 2020, joints {text} "
                                      "(fit on random motion, held out: peg transfer)"}
+            write_report(result, signals, split, source, study.folder, study.stop_clock(), (), "blind")
         else:
             with study.reading(args.measured):
-                dataset = read_raven_dataset(args.measured, args.arm)
-            result, signals, split = run_on_raven_dataset(dataset)
-            source = {"kind": "raven", "path": str(args.measured), "description": f"RAVEN-II data {args.measured}"}
-        write_report(result, signals, split, source, study.folder, study.stop_clock())
+                read_measured(args.measured, args.arm)  # an unreadable input is a one-line usage error, before any work
+            result, signals, split = analyse(args.measured, study.folder, arm=args.arm)
         study.publish()
     units = _unit_names(result.units)
     print(f"named effects: {', '.join(result.named_effects) or 'none'}; unexplained: {result.unexplained}")
@@ -290,6 +508,8 @@ def main(argv=None) -> int:
     print(f"shrink (pooled, deg and mm): {100 * result.shrink:.1f} %   "
           f"[{pooled_rmse(result.residual_before.joints, result.units):.4f} -> "
           f"{pooled_rmse(result.residual_after.joints, result.units):.4f}]")
+    for sentence in result.signature:
+        print(f"  unexplained: {sentence}")
     study.done()
     return 0
 

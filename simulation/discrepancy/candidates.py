@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from simulation.model.effects import Backlash, CoulombFriction, Coupling, Drift, GravityStretch, Hysteresis, ViscousFriction
+from simulation.model.effects import Backlash, CapstanRunout, CoulombFriction, Coupling, Drift, GravityStretch, Hysteresis, ViscousFriction
 
 from simulation.discrepancy.generic import NominalModel
 from simulation.discrepancy.replay import RavenModel
@@ -23,7 +23,12 @@ from simulation.discrepancy.signals import MeasuredSignals
 
 @dataclass(frozen=True)
 class ParameterBlock:
-    """One named parameter of a candidate, one value per joint (or a matrix flattened)."""
+    """One named parameter of a candidate, one value per joint (or a matrix flattened).
+
+    ``unit`` is the SI unit of each value (a tuple of ``size`` strings, or one string for all),
+    e.g. ``("rad", "rad", "m")`` for a per-joint play; reports turn "rad" into degrees and "m" into
+    millimetres and keep composite units in SI.
+    """
 
     name: str
     size: int
@@ -31,6 +36,15 @@ class ParameterBlock:
     upper: float | np.ndarray
     scale: float | tuple | np.ndarray
     initial: float | tuple | np.ndarray
+    unit: str | tuple[str, ...] = ""
+
+    def units(self) -> tuple[str, ...]:
+        """The unit of each of the block's ``size`` values."""
+        if isinstance(self.unit, str):
+            return (self.unit,) * self.size
+        if len(self.unit) != self.size:
+            raise ValueError(f"parameter {self.name!r} has {self.size} values but {len(self.unit)} units")
+        return tuple(self.unit)
 
 
 @dataclass(frozen=True)
@@ -112,8 +126,18 @@ def _generic(name):
     return build
 
 
+JOINT_UNITS = ("rad", "rad", "m")
+LOAD_UNITS = ("N m", "N m", "N")
+LOAD_PER_SPEED_UNITS = ("N m s/rad", "N m s/rad", "N s/m")
+LOAD_PER_STRETCH_UNITS = ("N m/rad", "N m/rad", "N/m")
+
+
 def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
-    """The library for RAVEN-II data (the cable model's effects)."""
+    """Every candidate the cable model can take for RAVEN-II data (the simulator's named effects).
+
+    The workflow on RAVEN-II data screens only those of :data:`RAVEN_LIBRARY` (the others are the
+    starting structure's own effects, candidates only for ablation studies).
+    """
     homings = np.unique(signals.homing)
     extra_homings = tuple(int(h) for h in homings[1:])
 
@@ -122,26 +146,43 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
         return model.with_homing_offsets({c: offsets[i] for i, c in enumerate(extra_homings)})
 
     return [
-        Candidate("backlash", (ParameterBlock("half_width", 3, 0.0, 0.02, (1e-3, 1e-3, 5e-5), 0.0),),
+        Candidate("backlash", (ParameterBlock("half_width", 3, 0.0, 0.02, (1e-3, 1e-3, 5e-5), 0.0, JOINT_UNITS),),
                   _raven_effect(lambda m, v: Backlash(half_width=v["half_width"])), _raven_only),
-        Candidate("coulomb_friction", (ParameterBlock("force", 3, 0.0, 20.0, (0.2, 0.2, 1.0), 0.0),),
+        Candidate("coulomb_friction", (ParameterBlock("force", 3, 0.0, 20.0, (0.2, 0.2, 1.0), 0.0, LOAD_UNITS),),
                   _raven_effect(lambda m, v: CoulombFriction(force=v["force"])), _raven_only),
-        Candidate("viscous_friction", (ParameterBlock("coefficient", 3, 0.0, 500.0, (0.5, 0.5, 10.0), 0.0),),
+        Candidate("viscous_friction", (ParameterBlock("coefficient", 3, 0.0, 500.0, (0.5, 0.5, 10.0), 0.0,
+                                                      LOAD_PER_SPEED_UNITS),),
                   _raven_effect(lambda m, v: ViscousFriction(coefficient=v["coefficient"])), _raven_only),
-        Candidate("hysteresis", (ParameterBlock("stiffness", 3, 0.0, 1e5, (20.0, 10.0, 1000.0), 0.0),
-                                 ParameterBlock("width", 3, 1e-6, 0.05, (3e-3, 3e-3, 2e-4), (3e-3, 3e-3, 2e-4))),
+        Candidate("hysteresis", (ParameterBlock("stiffness", 3, 0.0, 1e5, (20.0, 10.0, 1000.0), 0.0,
+                                                LOAD_PER_STRETCH_UNITS),
+                                 ParameterBlock("width", 3, 1e-6, 0.05, (3e-3, 3e-3, 2e-4), (3e-3, 3e-3, 2e-4),
+                                                JOINT_UNITS)),
                   _raven_effect(lambda m, v: Hysteresis(stiffness=v["stiffness"], beta=0.7 / v["width"],
                                                         gamma=0.3 / v["width"])), _raven_only),
-        Candidate("gravity_stretch", (ParameterBlock("load_scale", 3, 0.0, 3.0, 1.0, 0.0),),
+        Candidate("gravity_stretch", (ParameterBlock("load_scale", 3, 0.0, 3.0, 1.0, 0.0, "1"),),
                   _raven_effect(lambda m, v: GravityStretch(load_scale=v["load_scale"])), _raven_only),
-        Candidate("coupling", (ParameterBlock("delta", 3, -0.1, 0.1, (0.01, 0.002, 0.002), 0.0),),
+        Candidate("coupling", (ParameterBlock("delta", 3, -0.1, 0.1, (0.01, 0.002, 0.002), 0.0, "1"),),
                   _raven_effect(lambda m, v: Coupling(delta=v["delta"])), _raven_only),
-        Candidate("drift", (ParameterBlock("creep_rate", 3, 0.0, 10.0, (3e-2, 3e-2, 3e-4), 0.0),
-                            ParameterBlock("stiffness_loss", 3, 0.0, 1000.0, 0.5, 0.0)),
+        Candidate("drift", (ParameterBlock("creep_rate", 3, 0.0, 10.0, (3e-2, 3e-2, 3e-4), 0.0,
+                                           ("rad/h", "rad/h", "m/h")),
+                            ParameterBlock("stiffness_loss", 3, 0.0, 1000.0, 0.5, 0.0, "1/h")),
                   _raven_effect(lambda m, v: Drift(creep_rate=v["creep_rate"], stiffness_loss=v["stiffness_loss"])),
                   _raven_only),
-        Candidate("homing_offset", (ParameterBlock("offset", 3 * len(extra_homings), -0.1, 0.1, 1e-3, 0.0),),
+        Candidate("homing_offset", (ParameterBlock("offset", 3 * len(extra_homings), -0.1, 0.1, 1e-3, 0.0,
+                                                   JOINT_UNITS * len(extra_homings)),),
                   homing_build, _homing_applies),
+    ]
+
+
+def oracle_candidates(signals: MeasuredSignals) -> list[Candidate]:
+    """Candidates for effects the library deliberately lacks (``capstan_runout``).
+
+    Only a study that knows what generated the data uses them, to fit the generator's true
+    structure (the oracle); the workflow never screens them.
+    """
+    return [
+        Candidate("capstan_runout", (ParameterBlock("amplitude", 3, 0.0, 0.02, (1e-3, 1e-3, 5e-5), 0.0, JOINT_UNITS),),
+                  _raven_effect(lambda m, v: CapstanRunout(amplitude=v["amplitude"])), _raven_only),
     ]
 
 
@@ -149,16 +190,22 @@ def generic_candidates(signals: MeasuredSignals) -> list[Candidate]:
     """The library for generic data (joint-space forms of the same effects)."""
     j = signals.n_joints
     span = np.max(np.ptp(signals.reported, axis=0))
+    joint = tuple(signals.units)
+    per_speed = ("s",) * j
+    travel = tuple(f"{u}/{u}" for u in joint)
+    pairs = tuple(f"{joint[r]}/{joint[c]}" for r in range(j) for c in range(j) if r != c)
     return [
-        Candidate("backlash", (ParameterBlock("half_width", j, 0.0, 0.5 * span, 1e-2, 1e-3),), _generic("backlash"), _any),
-        Candidate("coulomb_friction", (ParameterBlock("lag", j, -0.5 * span, 0.5 * span, 1e-2, 0.0),),
+        Candidate("backlash", (ParameterBlock("half_width", j, 0.0, 0.5 * span, 1e-2, 1e-3, joint),),
+                  _generic("backlash"), _any),
+        Candidate("coulomb_friction", (ParameterBlock("lag", j, -0.5 * span, 0.5 * span, 1e-2, 0.0, joint),),
                   _generic("coulomb_friction"), _any),
-        Candidate("viscous_friction", (ParameterBlock("lag_per_speed", j, -10.0, 10.0, 0.1, 0.0),),
+        Candidate("viscous_friction", (ParameterBlock("lag_per_speed", j, -10.0, 10.0, 0.1, 0.0, per_speed),),
                   _generic("viscous_friction"), _any),
-        Candidate("hysteresis", (ParameterBlock("amplitude", j, -0.5 * span, 0.5 * span, 1e-2, 0.0),
-                                 ParameterBlock("width", j, 1e-4, span, 0.05, 0.05)), _generic("hysteresis"), _any),
-        Candidate("coupling", (ParameterBlock("matrix", j * (j - 1), -1.0, 1.0, 0.05, 0.0),), _generic("coupling"), _any),
-        Candidate("drift", (ParameterBlock("creep", j, -0.1, 0.1, 1e-3, 0.0),), _generic("drift"), _any),
+        Candidate("hysteresis", (ParameterBlock("amplitude", j, -0.5 * span, 0.5 * span, 1e-2, 0.0, joint),
+                                 ParameterBlock("width", j, 1e-4, span, 0.05, 0.05, joint)), _generic("hysteresis"), _any),
+        Candidate("coupling", (ParameterBlock("matrix", j * (j - 1), -1.0, 1.0, 0.05, 0.0, pairs),),
+                  _generic("coupling"), _any),
+        Candidate("drift", (ParameterBlock("creep", j, -0.1, 0.1, 1e-3, 0.0, travel),), _generic("drift"), _any),
     ]
 
 
@@ -167,9 +214,15 @@ def library(signals: MeasuredSignals) -> list[Candidate]:
     return raven_candidates(signals) if signals.kind == "raven" else generic_candidates(signals)
 
 
+RAVEN_LIBRARY = ("backlash", "hysteresis", "drift", "homing_offset")
+"""The candidates the workflow screens on every RAVEN-II input, whatever the data: effects that the
+starting structure (the identified cable model of
+:data:`studies.common.discrepancy_runs.STARTING_STRUCTURE`) does not hold."""
+
 LIBRARY_NAMES = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "gravity_stretch", "coupling",
                  "drift", "homing_offset")
 """Effect names the workflow can name. The simulator has more (``capstan_runout``), which the
 library deliberately lacks: a residual they cause is reported as unexplained."""
 
-__all__ = ["Candidate", "LIBRARY_NAMES", "NominalModel", "ParameterBlock", "library"]
+__all__ = ["Candidate", "LIBRARY_NAMES", "NominalModel", "ParameterBlock", "RAVEN_LIBRARY", "library",
+           "oracle_candidates"]

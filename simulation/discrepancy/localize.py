@@ -1,9 +1,9 @@
 """Step 2 of the workflow: where is the residual large?
 
 Bins the residual of each joint by the variables an effect would depend on: the direction and
-speed of motion, the gravity (and payload) load, the configuration, the operating time (travel
-accumulated since the start of the record) and the homing count, and reports the mean and RMS
-per bin. A residual whose mean flips with the direction of motion points at backlash or dry
+speed of motion, the gravity (and payload) load, the configuration, the accumulated travel (the
+operating time of the cables: joint travel since the start of the record) and the homing count, and
+reports the mean and RMS per bin. A residual whose mean flips with the direction of motion points at backlash or dry
 friction, one that grows with speed at viscous friction, with load at gravity stretch, with
 travel at fatigue, with homings at the registration.
 """
@@ -51,7 +51,7 @@ def localize(signals: MeasuredSignals, residual: np.ndarray, state: ReplayState 
             "direction": (direction + 1, ["moving down", "still", "moving up"]),
             "speed": (_quantile_bins(np.abs(velocity[:, j]), n_bins), None),
             "position": (_quantile_bins(signals.truth[mask, j], n_bins), None),
-            "operating time": (_quantile_bins(signals.travel[mask, j], n_bins), None),
+            "accumulated travel": (_quantile_bins(signals.travel[mask, j], n_bins), None),
             "homing": (np.searchsorted(np.unique(signals.homing[mask]), signals.homing[mask]), None),
         }
         if state is not None and state.gravity is not None:

@@ -17,20 +17,34 @@ import numpy as np
 
 RAVEN_JOINTS = ("shoulder", "elbow", "insertion")
 RAVEN_UNITS = ("rad", "rad", "m")
+ACCELERATION_WINDOW = 7
+"""Samples (present and past) the accelerations are fitted over (see :attr:`MeasuredSignals.acceleration`)."""
 
 
-def _derivative(values: np.ndarray, time: np.ndarray) -> np.ndarray:
-    """Time derivative of each column, second-order accurate on uneven samples."""
-    return np.gradient(values, time, axis=0, edge_order=1)
+def _causal_derivative(values: np.ndarray, time: np.ndarray, window: int, order: int = 2) -> np.ndarray:
+    """Time derivative of each column from the present and past samples only (no look-ahead).
 
-
-def _smooth(values: np.ndarray, width: int) -> np.ndarray:
-    """Centred moving average over ``width`` samples (edges shrink the window)."""
-    if width <= 1:
-        return values
-    kernel = np.ones(width) / width
-    padded = np.pad(values, ((width // 2, width - 1 - width // 2), (0, 0)), mode="edge")
-    return np.column_stack([np.convolve(padded[:, j], kernel, mode="valid") for j in range(values.shape[1])])
+    At each sample a polynomial of ``order`` (a line for ``window <= 2``) is fitted by least squares
+    to the last ``window`` samples at their actual times, and its slope at the present sample is
+    the derivative. With ``order=2`` it is exact for motion up to that order, so it does not lag a
+    smooth motion as a trailing moving average would; with ``order=1`` the slope is the window's
+    mean slope, less noisy but late by half the window. Before the first sample the record is taken
+    as at rest (the first value held), so the first derivative is zero.
+    """
+    window = max(int(window), 2)
+    order = 1 if window <= 2 else order
+    n = values.shape[0]
+    step = float(np.median(np.diff(time))) if n > 1 else 1.0
+    pad = window - 1
+    t = np.concatenate([time[0] - step * np.arange(pad, 0, -1), time])
+    v = np.concatenate([np.repeat(values[:1], pad, axis=0), values])
+    windows_t = np.lib.stride_tricks.sliding_window_view(t, window)            # (N, w)
+    windows_v = np.lib.stride_tricks.sliding_window_view(v, window, axis=0)    # (N, J, w)
+    lags = windows_t - windows_t[:, -1:]                                       # <= 0, present sample at 0
+    design = np.stack([lags ** k for k in range(order + 1)], axis=-1)          # (N, w, order+1)
+    # slope at lag 0 = second row of the least-squares solution (design^+ values)
+    slope_weights = np.linalg.pinv(design)[:, 1, :]                            # (N, w)
+    return np.einsum("nw,njw->nj", slope_weights, windows_v)
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,6 +65,10 @@ class MeasuredSignals:
     kind : "raven" (motor-side data and a cable model) or "generic".
     arm : "left" or "right" for RAVEN-II data.
     tool_joints : (N, 3) reported tool joints J3..J5 (rad) for the kinematics, RAVEN-II only.
+    smoothing : samples (present and past) each velocity is fitted over; no derivative looks
+        ahead, so a replay at a sample uses nothing measured after it.
+    travel, loaded_travel : accumulated joint travel (and payload-weighted travel) since the start
+        of the record; computed on construction unless given (a selection keeps the session's).
     """
 
     time: np.ndarray
@@ -104,20 +122,27 @@ class MeasuredSignals:
 
     @cached_property
     def velocity(self) -> np.ndarray:
-        """Joint velocity from the measured positions, lightly smoothed (rad/s, m/s)."""
-        return _derivative(_smooth(self.truth, self.smoothing), self.time)
+        """Joint velocity from the measured positions (rad/s, m/s), causal: each sample's velocity
+        uses that sample and the ``smoothing - 1`` before it (see :func:`_causal_derivative`)."""
+        return _causal_derivative(self.truth, self.time, self.smoothing)
 
     @cached_property
     def acceleration(self) -> np.ndarray:
-        return _derivative(self.velocity, self.time)
+        """Joint acceleration (rad/s^2, m/s^2): the mean slope of :attr:`velocity` over the present
+        and the ``ACCELERATION_WINDOW - 1`` samples before it (causal; a second lag-free derivative
+        would double the encoders' noise in the inertial loads, which matters more than its lag of
+        about a tenth of a second at 30 Hz)."""
+        return _causal_derivative(self.velocity, self.time, ACCELERATION_WINDOW, order=1)
 
     @cached_property
     def drive_velocity(self) -> np.ndarray:
-        return _derivative(_smooth(self.drive, self.smoothing), self.time)
+        """Velocity of the transmission's input (joint units per s), causal like :attr:`velocity`."""
+        return _causal_derivative(self.drive, self.time, self.smoothing)
 
     @cached_property
     def drive_acceleration(self) -> np.ndarray:
-        return _derivative(self.drive_velocity, self.time)
+        """Acceleration of the transmission's input, causal like :attr:`acceleration`."""
+        return _causal_derivative(self.drive_velocity, self.time, ACCELERATION_WINDOW, order=1)
 
     def cumulative_motion(self, per_kg: float = 0.0) -> np.ndarray:
         """Accumulated joint travel since the start of the record (rad, rad, m), optionally load-weighted.

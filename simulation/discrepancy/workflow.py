@@ -12,6 +12,9 @@ model identified from the measured data:
    it is still above the floor the data's own noise sets.
 4. Add the named effect, with its fitted parameters, to the model and replay again.
 5. Show the gap on the held-out part before and after; repeat from 1.
+6. When a residual above the noise floor is left that no candidate explains, describe it by a
+   sparse fit over a generic term library (:mod:`simulation.discrepancy.signature`): the
+   ``signature``, never a wrong name.
 
 Candidates are first screened by a coarse scan of their parameters (cheap replays); the most
 promising are fitted in full. Effects that look alike in the joints (backlash, dry friction,
@@ -31,6 +34,7 @@ from simulation.discrepancy.generic import NominalModel
 from simulation.discrepancy.replay import RavenModel
 from simulation.discrepancy.fitting import ChannelWeights, Residual, fit_candidate, residual
 from simulation.discrepancy.signals import MeasuredSignals, joint_rmse, pooled_rmse, report_scale
+from simulation.discrepancy.signature import describe_residual
 
 
 @dataclass(frozen=True)
@@ -57,6 +61,9 @@ class WorkflowSettings:
     backfit_rounds : with a base identifier, how many times a candidate outside the identifier's
         reach is fitted and the base re-identified on the joints with the candidate's share
         removed (the base otherwise keeps the part of the missing effect it absorbed).
+    accept_all : add the best fitted candidate of every iteration whatever it scores. Not for
+        discovery: it fits a structure known in advance (the oracle of a study that generated the
+        data, given exactly the generator's effects as candidates) by the workflow's own steps.
     """
 
     min_shrink: float = 0.10
@@ -67,6 +74,7 @@ class WorkflowSettings:
     bic_weight: float = 1.0
     refit_with: tuple[str, ...] = ()
     backfit_rounds: int = 1
+    accept_all: bool = False
 
 
 @dataclass(frozen=True)
@@ -84,11 +92,14 @@ class CandidateScore:
 
 @dataclass(frozen=True)
 class Iteration:
-    """One pass of steps 1-4."""
+    """One pass of steps 1-4: the current model's pooled gaps (deg and mm) on the validation and fit
+    parts and its validation chi-square (the BIC of a model adding nothing), then each candidate's."""
 
     gap_before: float
     scores: tuple[CandidateScore, ...]
     named: str | None
+    fit_gap_before: float = np.nan
+    bic_before: float = np.nan
 
 
 @dataclass(frozen=True)
@@ -97,6 +108,10 @@ class DiscrepancyResult:
 
     ``gap_before``/``gap_after`` are held-out RMSE per joint in SI units (rad, rad, m for RAVEN-II);
     ``shrink`` is ``1 - after/before`` on the pooled RMSE with rad in degrees and m in millimetres.
+    ``library`` are the candidates screened; ``signature`` describes in words what the final
+    model leaves unexplained on the fit and validation parts, strongest first (empty when
+    nothing is unexplained; :func:`~simulation.discrepancy.signature.describe_residual`).
+    ``parameter_units`` gives the SI unit of each fitted parameter value, like ``fitted_parameters``.
     """
 
     named_effects: tuple[str, ...]
@@ -112,6 +127,9 @@ class DiscrepancyResult:
     joint_names: tuple[str, ...]
     residual_before: Residual = field(repr=False)
     residual_after: Residual = field(repr=False)
+    library: tuple[str, ...] = ()
+    signature: tuple[str, ...] = ()
+    parameter_units: dict = field(default_factory=dict)
 
 
 def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights: ChannelWeights,
@@ -285,6 +303,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
     library_by_name = {c.name: c for c in library(signals)}
     named: list[str] = []
     fitted_parameters: dict = {}
+    parameter_units: dict = {}
     iterations: list[Iteration] = []
     structure = tuple(base.structure) if base is not None else ()
 
@@ -352,7 +371,8 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         accepted = None
         if best is not None:
             bic, gap, fit_gap, candidate, trial, values = best
-            if (bic < current_bic and gap <= (1 - settings.min_shrink) * current_gap
+            if settings.accept_all or (
+                    bic < current_bic and gap <= (1 - settings.min_shrink) * current_gap
                     and fit_gap <= (1 - settings.min_shrink) * current_fit_gap
                     and current_gap - gap >= settings.min_improvement):
                 accepted = candidate.name
@@ -361,11 +381,18 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                     structure = structure + (candidate.name,)
                 named.append(candidate.name)
                 fitted_parameters[candidate.name] = values
-        iterations.append(Iteration(gap_before=current_gap, scores=tuple(scores), named=accepted))
+                parameter_units[candidate.name] = {b.name: list(b.units()) for b in candidate.blocks}
+        iterations.append(Iteration(gap_before=current_gap, scores=tuple(scores), named=accepted,
+                                    fit_gap_before=current_fit_gap, bic_before=current_bic))
         if accepted is None:
             break
 
     unexplained = bool(_validation_gap(on(model, split.validation), units) > settings.unexplained_floor)
+    signature: tuple[str, ...] = ()
+    if unexplained:
+        # what no candidate explains, described where the model was fitted and chosen (contiguous)
+        part = split.fit | split.validation
+        signature = tuple(describe_residual(signals.select(part), on(model, part).joints).sentences())
     before = on(initial_model, split.held_out)
     after = on(model, split.held_out)
     pooled_before = pooled_rmse(before.joints, units)
@@ -384,4 +411,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         joint_names=signals.joint_names,
         residual_before=before,
         residual_after=after,
+        library=tuple(c.name for c in candidates),
+        signature=signature,
+        parameter_units=parameter_units,
     )

@@ -2,14 +2,20 @@
 data with a hidden effect, on recorded RAVEN-II data, and on generic data such as the dVRK
 recordings. ``studies/discrepancy.py`` is their command line.
 
-Step 0 starts from a model identified from the measured data itself
-(:func:`simulation.identification.identify` on the fit part), never from the parameters that
-generated the data.
+Generation and analysis meet only through one file: :func:`generate_measured` simulates the
+starting structure plus a hidden effect, :func:`write_measured` writes ``measured.parquet``, and
+:func:`analyse_measured` reads that file and nothing else. Step 0 of the analysis starts from the
+model of :data:`STARTING_STRUCTURE` identified from the measured data itself
+(:func:`simulation.identification.identify` on the fit part) and screens the one :data:`LIBRARY`,
+whatever the data. Only a study that generated the data then adds what it knows
+(:func:`oracle`, :func:`true_values`), after the analysis.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from pathlib import Path
 
 from simulation.model.effects import Backlash, CapstanRunout, Drift
 from simulation.model.parameters import RavenParameters
@@ -24,12 +30,23 @@ from simulation.discrepancy import (
     WorkflowSettings,
     run_workflow,
 )
+from simulation.discrepancy.candidates import RAVEN_LIBRARY, library, oracle_candidates
 
-NOMINAL_STRUCTURE = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction")
-"""The starting model's structure: the cable model the identification fits (the UKF's model class)."""
-MEASUREMENT_EFFECTS = ("quantization", "noise", "homing_offset")
-"""Effects of how the robot is measured and registered, always on in generated data: they set the
-noise floor and the offsets, and are not structure the workflow is asked to find."""
+STARTING_STRUCTURE = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction")
+"""The starting model of every RAVEN-II analysis, whatever the data: the cable model the
+identification fits (the UKF's model class), identified on the data's fit part."""
+LIBRARY = RAVEN_LIBRARY
+"""The candidates every RAVEN-II analysis screens (:data:`~simulation.discrepancy.candidates.RAVEN_LIBRARY`)."""
+UNMODELLED_EFFECTS = ("capstan_runout",)
+"""Simulator effects neither in the starting structure nor in the library: hiding one tests that the
+workflow reports the residual as unexplained, with a signature, rather than under a wrong name."""
+HIDDEN_CHOICES = ("none",) + LIBRARY + UNMODELLED_EFFECTS
+"""What ``--hidden-effect`` accepts: nothing, any candidate of the library, or an unmodelled effect."""
+ABLATION_CHOICES = tuple(n for n in STARTING_STRUCTURE if n != "cable_stretch")
+"""What ``--ablate`` accepts: a term of the starting structure, which the analysis then lacks."""
+MEASUREMENT_EFFECTS = ("quantization", "noise")
+"""Effects of how the robot is measured, always on in generated data: they set the noise floor and
+are not structure the workflow is asked to find."""
 HIDDEN_EFFECT_SIZES = {
     "backlash": Backlash(half_width=np.array([1.2e-3, 1.5e-3, 6e-5])),
     "drift": Drift(time_scale=60.0),
@@ -39,27 +56,71 @@ HIDDEN_EFFECT_SIZES = {
 sizes: three times the default backlash, drift with one minute standing for an hour of aging, and
 the capstan runout of a 60 um eccentric capstan (the effect the library lacks, for the
 "unexplained" check). The other effects hide at their virtual RAVEN-II defaults."""
+REHOMING_AT = 0.3
+"""With a hidden ``homing_offset`` the session re-homes once, after this fraction of the motion (in
+the fit part): registration offsets differ only between homings, so a record of one homing cannot
+hold the effect. Every other record is of one homing."""
+
+if set(STARTING_STRUCTURE) & set(LIBRARY + UNMODELLED_EFFECTS):
+    raise ImportError("the starting structure must hold none of the candidates and no unmodelled effect")
 
 
-def generate_measured(hidden=(), seed: int = 0, duration: float = 240.0, params: RavenParameters | None = None):
-    """Simulated "measured" data: the nominal structure with ``hidden`` effects on.
-
-    Returns the dataset (a :class:`~simulation.recordings.dataset.CalibrationDataset` of one homed session of
-    random motion) and the generating parameters (for reports only; the workflow never sees them).
-    """
-    from kinematics import RavenII
-    from simulation.recordings.recording import recording_to_dataset
-    from simulation.engine.scenarios import powered_on, record_random_test
-
+def check_hidden(hidden) -> tuple[str, ...]:
+    """``hidden`` as a tuple of effect names, refusing any that cannot be hidden, with the reason."""
     hidden = tuple(hidden)
-    base = params or RavenParameters()
-    generator = base.only(*NOMINAL_STRUCTURE, *MEASUREMENT_EFFECTS, *hidden)
+    for name in hidden:
+        if name in STARTING_STRUCTURE:
+            raise ValueError(f"{name} is in the starting structure, so hiding it changes nothing in the data "
+                             f"(--ablate {name} analyses a model lacking it)")
+        if name in MEASUREMENT_EFFECTS:
+            raise ValueError(f"{name} is always on in generated data (it is how the robot is measured)")
+        if name not in HIDDEN_CHOICES or name == "none":
+            raise ValueError(f"unknown hidden effect {name!r}; choose 'none' or from {', '.join(HIDDEN_CHOICES[1:])}")
+    if len(set(hidden)) != len(hidden):
+        raise ValueError(f"an effect is hidden twice in {', '.join(hidden)}")
+    return hidden
+
+
+def generator_parameters(hidden=(), params: RavenParameters | None = None) -> RavenParameters:
+    """The simulator's parameters of generated data: the starting structure, the measurement
+    effects and ``hidden`` (at :data:`HIDDEN_EFFECT_SIZES` where listed), nothing else."""
+    hidden = check_hidden(hidden)
+    generator = (params or RavenParameters()).only(*STARTING_STRUCTURE, *MEASUREMENT_EFFECTS, *hidden)
     for name in hidden:
         if name in HIDDEN_EFFECT_SIZES:
             generator = generator.with_effect(HIDDEN_EFFECT_SIZES[name])
+    return generator
+
+
+def generate_measured(hidden=(), seed: int = 0, duration: float = 240.0, params: RavenParameters | None = None):
+    """Simulated "measured" data: the starting structure plus the ``hidden`` effects, nothing else.
+
+    Returns the dataset (a :class:`~simulation.recordings.dataset.CalibrationDataset` of one session
+    of random motion, re-homed once at :data:`REHOMING_AT` when ``homing_offset`` is hidden) and the
+    generating parameters (for the oracle and the report only; the analysis never sees them).
+    """
+    from kinematics import RavenII
+    from simulation.engine.scenarios import powered_on, record_random_test, rehome
+    from simulation.recordings.recording import Recording, recording_to_dataset
+
+    hidden = check_hidden(hidden)
+    generator = generator_parameters(hidden, params)
     robot = powered_on(generator, seed=seed)
-    recording = record_random_test(robot, duration, seed=seed + 1)
+    if "homing_offset" in hidden:
+        first = record_random_test(robot, REHOMING_AT * duration, seed=seed + 1)
+        rehome(robot)
+        second = record_random_test(robot, (1 - REHOMING_AT) * duration, seed=seed + 2)
+        recording = Recording.concatenate([first, second])
+    else:
+        recording = record_random_test(robot, duration, seed=seed + 1)
     return recording_to_dataset(recording, RavenII(generator.arm, check_limits=False)), generator
+
+
+def write_measured(dataset, folder) -> Path:
+    """Write ``dataset`` as ``folder/measured.parquet``, the one file between generation and analysis."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    return dataset.to_parquet(folder / "measured.parquet")
 
 
 def uninformed_start(arm: str = "left") -> RavenParameters:
@@ -75,7 +136,7 @@ def uninformed_start(arm: str = "left") -> RavenParameters:
     return params.with_effect(ViscousFriction(coefficient=[0.1, 0.1, 1.0]))
 
 
-def identified_model(dataset, mask: np.ndarray, structure=NOMINAL_STRUCTURE) -> RavenModel:
+def identified_model(dataset, mask: np.ndarray, structure=STARTING_STRUCTURE) -> RavenModel:
     """Step 0: the cable model of ``structure`` identified on the ``mask`` rows of the dataset,
     starting from :func:`uninformed_start`."""
     import warnings
@@ -99,7 +160,7 @@ def _with_truth_corrected(dataset, correction: np.ndarray):
     return CalibrationDataset(table, arm=dataset.arm)
 
 
-def raven_base_identifier(dataset, fit_mask: np.ndarray, structure=NOMINAL_STRUCTURE) -> BaseIdentifier:
+def raven_base_identifier(dataset, fit_mask: np.ndarray, structure=STARTING_STRUCTURE) -> BaseIdentifier:
     """Step 0 and its re-runs: the identification on the fit part of ``dataset``."""
     from simulation.identification import FITTABLE_EFFECTS
 
@@ -110,24 +171,119 @@ def raven_base_identifier(dataset, fit_mask: np.ndarray, structure=NOMINAL_STRUC
     return BaseIdentifier(identify=identify_structure, fittable=tuple(FITTABLE_EFFECTS), structure=tuple(structure))
 
 
-def run_on_raven_dataset(dataset, structure=NOMINAL_STRUCTURE, settings: WorkflowSettings = WorkflowSettings(),
-                         fractions=(0.5, 0.25, 0.25), exclude=()) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
-    """The workflow on a RAVEN-II dataset: split in time, identify ``structure`` on the fit part, run."""
+def raven_library(signals: MeasuredSignals, names=LIBRARY):
+    """The candidates called ``names`` for RAVEN-II signals (by default the library of every analysis)."""
+    every = {c.name: c for c in library(signals) + oracle_candidates(signals)}
+    return [every[n] for n in names]
+
+
+def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: WorkflowSettings = WorkflowSettings(),
+                         fractions=(0.5, 0.25, 0.25), exclude=(), candidates=LIBRARY
+                         ) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+    """The workflow on a RAVEN-II dataset: split in time, identify ``structure`` on the fit part,
+    screen the ``candidates`` (effect names)."""
     signals = MeasuredSignals.from_dataset(dataset)
     split = Split.by_time(signals, fractions)
     base = raven_base_identifier(dataset, split.fit, structure)
     model = base.identify(tuple(structure), None)
-    return run_workflow(model, signals, split, settings, exclude=exclude, base=base), signals, split
+    return run_workflow(model, signals, split, settings, candidates=raven_library(signals, candidates),
+                        exclude=exclude, base=base), signals, split
 
 
-def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0,
-                      settings: WorkflowSettings = WorkflowSettings()):
-    """Hide ``hidden`` in generated data and run the workflow from the nominal structure without it."""
-    hidden = tuple(hidden)
+def read_measured(path, arm: str = "left"):
+    """The RAVEN-II dataset of a dataset file (``.parquet``, ``.csv``), a ROS bag or a folder of
+    either, without the rows flagged invalid. ``arm`` is for bags and CSV files (a Parquet dataset
+    file records its arm)."""
+    from simulation.recordings.dataset import CalibrationDataset
+    from studies.common.data_sources import recorded_datasets
+
+    datasets, _ = recorded_datasets(path, arm)
+    dataset = CalibrationDataset.concat(datasets) if len(datasets) > 1 else datasets[0]
+    return dataset.select(dataset.valid_mask()) if dataset.n_invalid else dataset
+
+
+def analyse_measured(path) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+    """The blind analysis of RAVEN-II data: all it knows is the file (or folder) at ``path``.
+
+    Always the same :data:`STARTING_STRUCTURE`, identified on the first half of the record, the
+    same :data:`LIBRARY` of candidates and the default :class:`WorkflowSettings`: no seed, no
+    generator, no name of what the data may hide.
+    """
+    return run_on_raven_dataset(read_measured(path))
+
+
+def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=None):
+    """Hide ``hidden`` in generated data, write it to ``folder/measured.parquet`` (a temporary folder
+    by default) and analyse that file blind (:func:`analyse_measured`).
+
+    Returns the analysis (result, signals, split) and the generator's parameters.
+    """
+    import tempfile
+
     dataset, generator = generate_measured(hidden, seed, duration)
-    structure = tuple(e for e in NOMINAL_STRUCTURE if e not in hidden)
-    result, signals, split = run_on_raven_dataset(dataset, structure, settings)
+    if folder is None:
+        with tempfile.TemporaryDirectory() as tmp:
+            result, signals, split = analyse_measured(write_measured(dataset, tmp))
+    else:
+        result, signals, split = analyse_measured(write_measured(dataset, folder))
     return result, signals, split, generator
+
+
+def run_ablation(name: str, seed: int = 0, duration: float = 240.0, folder=None):
+    """Ablation, not a hidden effect: data generated with the full starting structure (the "none"
+    data), analysed from the structure without ``name``, with ``name`` added to the candidates: can
+    the workflow put back a term the model lacks?"""
+    import tempfile
+
+    if name not in ABLATION_CHOICES:
+        raise ValueError(f"cannot ablate {name!r}; choose from {', '.join(ABLATION_CHOICES)}")
+    dataset, generator = generate_measured((), seed, duration)
+    structure = tuple(e for e in STARTING_STRUCTURE if e != name)
+
+    def analyse(path):
+        return run_on_raven_dataset(read_measured(path), structure, candidates=LIBRARY + (name,))
+
+    if folder is None:
+        with tempfile.TemporaryDirectory() as tmp:
+            result, signals, split = analyse(write_measured(dataset, tmp))
+    else:
+        result, signals, split = analyse(write_measured(dataset, folder))
+    return result, signals, split, generator
+
+
+def oracle(path, hidden) -> DiscrepancyResult:
+    """The generator's true structure fitted to the same fit part of the same file.
+
+    The starting structure is identified as in the blind analysis, then every hidden effect is
+    added with its parameters fitted (never given) by the workflow's own steps, whatever it scores.
+    Its held-out gap is what a model of the right structure closes.
+    """
+    hidden = check_hidden(hidden)
+    dataset = read_measured(path)
+    signals = MeasuredSignals.from_dataset(dataset)
+    split = Split.by_time(signals)
+    base = raven_base_identifier(dataset, split.fit, STARTING_STRUCTURE)
+    model = base.identify(STARTING_STRUCTURE, None)
+    settings = WorkflowSettings(accept_all=True, max_iterations=len(hidden), screen_top=max(len(hidden), 1))
+    return run_workflow(model, signals, split, settings, candidates=raven_library(signals, hidden), base=base)
+
+
+def true_values(generator: RavenParameters, name: str) -> dict | None:
+    """The generator's values of effect ``name`` in its candidate's parameters (for reports after the
+    analysis), or None where the generator holds no single value (registration offsets are drawn
+    anew at each homing)."""
+    if name == "homing_offset" or not generator.is_enabled(name):
+        return None
+    effect = generator.effect(name)
+    if name == "hysteresis":
+        return {"stiffness": effect.stiffness.tolist(), "width": (1.0 / (effect.beta + effect.gamma)).tolist()}
+    if name == "drift":
+        # the candidate's fatigue dose runs in operating hours (time scale 1): its rates carry the generator's scale
+        return {"creep_rate": (effect.creep_rate * effect.time_scale).tolist(),
+                "stiffness_loss": (effect.stiffness_loss * effect.time_scale).tolist()}
+    fields = {"backlash": ("half_width",), "capstan_runout": ("amplitude",), "coulomb_friction": ("force",),
+              "viscous_friction": ("coefficient",), "gravity_stretch": ("load_scale",), "coupling": ("delta",)}
+    return {f: np.asarray(getattr(effect, f), dtype=float).tolist() for f in fields.get(name, ())} or None
 
 
 def run_on_generic(time, reported, truth, joint_names, units, held_out_start: int | None = None,
