@@ -231,3 +231,16 @@ def test_bad_use_raises_clear_errors(session):
         warnings.simplefilter("error")
         with pytest.raises(ValueError, match="max_step"):
             UKFJointEstimator(tuning="none", max_step=0.0).fit(calibration)
+
+
+def test_verbose_reports_the_filter_run_and_changes_nothing(session, fitted, capsys):
+    """verbose=1 prints one line per filter run (samples, time, events); the estimates are the same."""
+    calibration, test, _ = session
+    capsys.readouterr()
+    talkative = UKFJointEstimator(tuning="none", verbose=1).fit_identified(fitted.identification_, calibration)
+    quiet_estimates = fitted.predict(test)
+    assert capsys.readouterr().out == ""
+    estimates = talkative.predict(test)
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("UKF: filtered") and "events" in lines[0]
+    np.testing.assert_array_equal(estimates.joints, quiet_estimates.joints)

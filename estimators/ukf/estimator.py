@@ -30,6 +30,8 @@ The estimator follows the project's calibrators where it can (hyper-parameters i
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from scipy.optimize import minimize
 from sklearn.base import BaseEstimator
@@ -92,6 +94,9 @@ class UKFJointEstimator(BaseEstimator):
         estimates are unchanged; without ground truth the scale is 1.
     coast_noise_scale : factor on the process covariance over steps without a usable reading (1:
         the tuned noise; larger widens the reported spread while coasting).
+    verbose : 0 prints nothing; 1 prints a line when the identification, the noise tuning and each
+        filter run end (with their times), to stdout as scikit-learn does; 2 also prints each
+        identification pass and every tuning run.
 
     Bad samples are handled as :mod:`estimators.ukf.run` describes: implausible and gated readings
     are rejected, missing or flagged ones coasted through, divergence re-initialises; the
@@ -116,7 +121,7 @@ class UKFJointEstimator(BaseEstimator):
                  tuning_evaluations: int = 40, payload_kg: float = 0.0, alpha: float = 1.0, beta: float = 2.0,
                  kappa: float = 0.0, max_step: float = MAX_STEP, refresh: int = REFRESH, max_gap: float = 1.0,
                  gate_probability: float = 0.9999, max_inflation: float = 10.0, max_rejections: int = 10,
-                 coast_noise_scale: float = 1.0, covariance_calibration: bool = True):
+                 coast_noise_scale: float = 1.0, covariance_calibration: bool = True, verbose: int = 0):
         self.effects = effects
         self.fixed = fixed
         self.base_parameters = base_parameters
@@ -138,6 +143,7 @@ class UKFJointEstimator(BaseEstimator):
         self.max_rejections = max_rejections
         self.coast_noise_scale = coast_noise_scale
         self.covariance_calibration = covariance_calibration
+        self.verbose = verbose
 
     # ---- settings ------------------------------------------------------------------------
 
@@ -194,8 +200,15 @@ class UKFJointEstimator(BaseEstimator):
         settings = self._settings()
         base = self.base_parameters if self.base_parameters is not None else RavenParameters(arm=log.arm)
         options = dict(self.identification_options or {})
+        options.setdefault("verbose", max(int(self.verbose) - 1, 0))
+        started = time.perf_counter()
         result = identify(log, effects=self.effects, base=base, fixed=self.fixed, **options)
+        self._say(1, f"UKF: cable model identified on {len(log)} samples in {time.perf_counter() - started:.1f} s")
         return self._finish_fit(result, log, settings)
+
+    def _say(self, level: int, message: str) -> None:
+        if int(self.verbose) >= level:
+            print(message, flush=True)
 
     def fit_identified(self, result: IdentificationResult, log=None) -> "UKFJointEstimator":
         """Use an existing identification; tune the noise on ``log`` unless ``process_noise`` is given."""
@@ -223,7 +236,10 @@ class UKFJointEstimator(BaseEstimator):
             period = float(np.median(np.diff(log.time))) if log is not None and len(log) > 1 else 1.0 / 30.0
             noise = physical_process_noise(model, result.report.torque_rmse, result.report.joint_rmse, period)
             if self.tuning != "none":
+                started = time.perf_counter()
                 noise = self._tune(noise, model, measurement, log, settings, limits)
+                self._say(1, f"UKF: noise tuned ({self.tuning}) in {len(self.tuning_history_)} filter runs, "
+                             f"{time.perf_counter() - started:.1f} s")
         self.identification_ = result
         self.arm_ = result.parameters.arm
         self.limits_ = limits
@@ -259,6 +275,7 @@ class UKFJointEstimator(BaseEstimator):
             if not np.isfinite(value):
                 value = 1e30
             self.tuning_history_.append((np.asarray(vector, dtype=float).copy(), float(value)))
+            self._say(2, f"UKF: tuning run {len(self.tuning_history_)}: objective {value:.6g}")
             return value
 
         x0 = start.as_vector()
@@ -314,9 +331,13 @@ class UKFJointEstimator(BaseEstimator):
         arm = getattr(self, "arm_", log.arm)
         if log.arm != arm:
             raise ValueError(f"the log is of the {log.arm} arm, but the filter's model was identified on the {arm} arm")
-        return run_filter(log, self.model_, self.process_noise_, self.measurement_noise_, self._settings(),
-                          valid=valid, limits=getattr(self, "limits_", None),
-                          covariance_scale=getattr(self, "covariance_scale_", None), eigenvalues=eigenvalues)
+        started = time.perf_counter()
+        estimates = run_filter(log, self.model_, self.process_noise_, self.measurement_noise_, self._settings(),
+                               valid=valid, limits=getattr(self, "limits_", None),
+                               covariance_scale=getattr(self, "covariance_scale_", None), eigenvalues=eigenvalues)
+        self._say(1, f"UKF: filtered {len(log)} samples ({log.time[-1] - log.time[0]:.0f} s of log) in "
+                     f"{time.perf_counter() - started:.1f} s; events {estimates.events}")
+        return estimates
 
 
 def _filter_input(source) -> tuple[MotorLog, np.ndarray]:

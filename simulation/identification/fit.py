@@ -27,6 +27,7 @@ the truth on the virtual RAVEN-II, which can be a few standard errors on long lo
 
 from __future__ import annotations
 
+import time
 import warnings
 
 import casadi as ca
@@ -188,7 +189,7 @@ class _Problem:
         return ca.Function("nlp_hess_l", [x, ca.MX.sym("p", 0), lam_f, lam_g], [ca.triu(hessian)],
                            ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
 
-    def solve(self, xi0, sigma, max_iterations: int) -> tuple[np.ndarray, int, str]:
+    def solve(self, xi0, sigma, max_iterations: int, print_level: int = 0) -> tuple[np.ndarray, int, str]:
         opti = ca.Opti()
         xi = opti.variable(self.p)
         opti.minimize(self.cost_map(xi, self.data, ca.DM(sigma)) / self.n)
@@ -203,7 +204,7 @@ class _Problem:
                 n_constraints += 1
         opti.set_initial(xi, xi0)
         opti.solver("ipopt", {"print_time": False, "hess_lag": self._hessian(sigma, n_constraints)},
-                    {"print_level": 0, "sb": "yes", "max_iter": int(max_iterations), "tol": 1e-8,
+                    {"print_level": int(print_level), "sb": "yes", "max_iter": int(max_iterations), "tol": 1e-8,
                      "acceptable_tol": 1e-5, "acceptable_iter": 2})
         try:
             solution = opti.solve()
@@ -327,7 +328,7 @@ def _fitted_parameters(base: RavenParameters, effects, slots: np.ndarray) -> Rav
 def identify(log, *, effects=FITTABLE_EFFECTS, base: RavenParameters | None = None, fixed=DEFAULT_FIXED,
              confidence: float = 0.95, derivative_window: float = DERIVATIVE_WINDOW, min_speed=None,
              reweight_passes: int = 1, covariance: str = "hac", hac_window: float = 1.0,
-             max_iterations: int = 200, max_relative_error: float = 0.5) -> IdentificationResult:
+             max_iterations: int = 200, max_relative_error: float = 0.5, verbose: int = 0) -> IdentificationResult:
     """Fit the cable model of the positioning joints to a log with ground-truth joints.
 
     Parameters
@@ -347,6 +348,8 @@ def identify(log, *, effects=FITTABLE_EFFECTS, base: RavenParameters | None = No
     reweight_passes : re-solves after rescaling each residual channel by its RMS.
     covariance : ``"hac"`` (Newey-West over ``hac_window`` seconds) or ``"classical"``.
     max_iterations : IPOPT iteration limit per pass.
+    verbose : 0 prints nothing; 1 prints one line per solver pass (iterations, status, elapsed) to
+        stdout; 2 or more also shows IPOPT's own iteration log.
     max_relative_error : standard error, as a fraction of the magnitude, beyond which an estimate is
         reported as poorly identified.
 
@@ -397,9 +400,14 @@ def identify(log, *, effects=FITTABLE_EFFECTS, base: RavenParameters | None = No
     sigma = np.maximum(_channel_rms(problem.residuals(xi, np.ones(6)), used), SIGMA_FLOOR)
     _structural_check(problem, xi, sigma)
     converged = True
-    for _ in range(int(reweight_passes) + 1):
-        xi, iterations, status = problem.solve(xi, sigma, max_iterations)
+    started = time.perf_counter()
+    for k in range(int(reweight_passes) + 1):
+        xi, iterations, status = problem.solve(xi, sigma, max_iterations, print_level=5 if verbose >= 2 else 0)
         converged = converged and status in ACCEPTED_STATUS
+        if verbose >= 1:
+            print(f"identify: pass {k + 1} of {int(reweight_passes) + 1}, {len(samples)} samples, {len(layout)} "
+                  f"unknowns: {iterations} IPOPT iterations, {status}, {time.perf_counter() - started:.1f} s",
+                  flush=True)
         sigma = np.maximum(sigma * _channel_rms(problem.residuals(xi, sigma), used), SIGMA_FLOOR)
     if not converged:
         warnings.warn(f"IPOPT did not converge (status {status}); the estimates are the last iterate",
