@@ -12,16 +12,8 @@ from sklearn.model_selection import GridSearchCV, KFold, cross_val_score
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from estimators import (
-    DNNCalibrator,
-    FixedOffsetCalibrator,
-    GPRCalibrator,
-    LinearCalibrator,
-    PolynomialCalibrator,
-    TwoPhaseCalibrator,
-    WindowLinearCalibrator,
-    WindowLSTMCalibrator,
-)
+from estimators import DNNCalibrator, FixedOffsetCalibrator, GPRCalibrator, LinearCalibrator
+from estimators import PolynomialCalibrator, TwoPhaseCalibrator, WindowLinearCalibrator, WindowLSTMCalibrator
 
 RAW = [0, 2]  # columns of X holding the uncorrected positions of the two targets
 CONSTANT = 3  # a column that never changes (like RAVEN-II's unused DOF slot)

@@ -13,18 +13,9 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 from threadpoolctl import threadpool_limits
 
-from estimators import (
-    LARGE_HIDDEN_LAYER_SIZES,
-    LARGE_REGULARIZATION,
-    DNNCalibrator,
-    FixedOffsetCalibrator,
-    GPRCalibrator,
-    LinearCalibrator,
-    PolynomialCalibrator,
-    TwoPhaseCalibrator,
-    pooled_rmse,
-    rmse_per_joint,
-)
+from estimators import LARGE_HIDDEN_LAYER_SIZES, LARGE_REGULARIZATION, DNNCalibrator, FixedOffsetCalibrator
+from estimators import GPRCalibrator, LinearCalibrator, PolynomialCalibrator, TwoPhaseCalibrator, pooled_rmse
+from estimators import rmse_per_joint
 from estimators import _gaussian_process as gp
 from estimators._forest import FlatForest
 from estimators._torch_training import MLPSettings, TrainingSettings, _MLPTrainee

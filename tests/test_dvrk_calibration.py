@@ -17,18 +17,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimators import (
-    DNNCalibrator,
-    FixedOffsetCalibrator,
-    GPRCalibrator,
-    LinearCalibrator,
-    PolynomialCalibrator,
-    TwoPhaseCalibrator,
-    WindowLinearCalibrator,
-    WindowLSTMCalibrator,
-    pooled_rmse,
-    rmse_per_joint,
-)
+from estimators import DNNCalibrator, FixedOffsetCalibrator, GPRCalibrator, LinearCalibrator
+from estimators import PolynomialCalibrator, TwoPhaseCalibrator, WindowLinearCalibrator, WindowLSTMCalibrator
+from estimators import pooled_rmse, rmse_per_joint
 from simulation.recordings import load_dvrk, locate_dvrk_data
 from simulation.recordings.dvrk import JOINT_NAMES, PRISMATIC_JOINTS, WRIST_JOINTS
 

@@ -19,16 +19,8 @@ import numpy as np
 import pytest
 from sklearn.preprocessing import PolynomialFeatures
 
-from estimators import (
-    DNNCalibrator,
-    FixedOffsetCalibrator,
-    GPRCalibrator,
-    LinearCalibrator,
-    PolynomialCalibrator,
-    TwoPhaseCalibrator,
-    WindowLinearCalibrator,
-    WindowLSTMCalibrator,
-)
+from estimators import DNNCalibrator, FixedOffsetCalibrator, GPRCalibrator, LinearCalibrator
+from estimators import PolynomialCalibrator, TwoPhaseCalibrator, WindowLinearCalibrator, WindowLSTMCalibrator
 
 N_FEATURES, N_TARGETS = 4, 2
 

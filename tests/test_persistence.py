@@ -18,18 +18,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from estimators import (
-    DNNCalibrator,
-    FixedOffsetCalibrator,
-    GPRCalibrator,
-    LinearCalibrator,
-    PolynomialCalibrator,
-    TwoPhaseCalibrator,
-    WindowLinearCalibrator,
-    WindowLSTMCalibrator,
-    load_calibrator,
-    save_calibrator,
-)
+from estimators import DNNCalibrator, FixedOffsetCalibrator, GPRCalibrator, LinearCalibrator
+from estimators import PolynomialCalibrator, TwoPhaseCalibrator, WindowLinearCalibrator, WindowLSTMCalibrator
+from estimators import load_calibrator, save_calibrator
 from estimators.persistence import FORMAT_VERSION, CalibratorFileError
 
 PROJECT = Path(__file__).resolve().parents[1]

@@ -17,16 +17,8 @@ from typing import Callable, Protocol
 import numpy as np
 from sklearn.base import clone
 
-from estimators import (
-    DNNCalibrator,
-    FixedOffsetCalibrator,
-    GPRCalibrator,
-    LinearCalibrator,
-    PolynomialCalibrator,
-    TwoPhaseCalibrator,
-    WindowLinearCalibrator,
-    WindowLSTMCalibrator,
-)
+from estimators import DNNCalibrator, FixedOffsetCalibrator, GPRCalibrator, LinearCalibrator
+from estimators import PolynomialCalibrator, TwoPhaseCalibrator, WindowLinearCalibrator, WindowLSTMCalibrator
 
 from studies.common.samples import Samples
 
