@@ -73,7 +73,7 @@ def test_linear_drift_in_time_is_named():
     residual[:, 2] += 1e-4 * (s.time - s.time[0]) / DURATION
     signature = describe_residual(s, residual)
     first = signature.leading()[0]
-    assert (first.joint, first.kind, first.direction) == ("insertion", "time", 1)
+    assert (first.joint, first.kind, first.direction) == ("z_ins", "time", 1)
     assert first.amplitude == pytest.approx(1e-4, rel=0.1)
     assert "grows linearly with time, 0.1 mm over the record" in signature.sentences()[0]
 

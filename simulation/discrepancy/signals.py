@@ -15,7 +15,9 @@ from functools import cached_property
 
 import numpy as np
 
-RAVEN_JOINTS = ("shoulder", "elbow", "insertion")
+from simulation.model.constants import POSITIONING_NAMES
+
+RAVEN_JOINTS = POSITIONING_NAMES
 RAVEN_UNITS = ("rad", "rad", "m")
 ACCELERATION_WINDOW = 7
 """Samples (present and past) the accelerations are fitted over (see :attr:`MeasuredSignals.acceleration`)."""
