@@ -339,6 +339,15 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
         flags[k] = REINITIALISED
         last_z, last_t, run, blind, pending = z[k], time[k], 0, 0.0, None
 
+    def restart_or_coast(k: int, reason: str) -> None:
+        """Re-initialise from a usable reading, else hold the estimate as lost."""
+        if valid_z[k]:
+            reinitialise(k, reason)
+            record(k)
+        else:
+            counts["coasted"] += 1
+            record(k, lost=True)
+
     for k in range(first + 1):
         record(k)
     for k in range(first + 1, n):
@@ -352,12 +361,7 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
         if dt > settings.max_gap and pending is None:
             pending = "gap"
         if pending is not None:
-            if valid_z[k]:
-                reinitialise(k, pending)
-                record(k)
-            else:
-                counts["coasted"] += 1
-                record(k, lost=True)
+            restart_or_coast(k, pending)
             continue
         if dt > GAP_FACTOR * period:
             counts["gaps"] += 1
@@ -369,12 +373,7 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
         if not (np.all(np.isfinite(ukf.x)) and np.all(np.isfinite(ukf.P))):
             ukf.x, ukf.P = before       # keep the last good estimate until a reading re-initialises
             pending = "non-finite prediction"
-            if usable:
-                reinitialise(k, pending)
-                record(k)
-            else:
-                counts["coasted"] += 1
-                record(k, lost=True)
+            restart_or_coast(k, pending)
             continue
         if not usable:
             counts["coasted"] += 1
