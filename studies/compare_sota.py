@@ -18,11 +18,13 @@ tables beside the paper's.
 
 from __future__ import annotations
 
+import argparse
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
+from simulation.model.parameters import RavenParameters
 from simulation.trajectories import PAPER_SPARSITIES
 from studies.common import paper_numbers as paper
 from studies.common import plots, reporting
@@ -38,6 +40,7 @@ from studies.common.runner import (
     StudyRun,
     existing_path,
     names,
+    one_line,
     open_fraction,
     positive_int,
     say,
@@ -349,9 +352,19 @@ def summary_table(document: dict) -> str:
     return "\n".join(lines)
 
 
+def robot_parameters(text: str) -> RavenParameters:
+    """An argument type: a robot parameter file (JSON of :meth:`RavenParameters.to_json`), read now."""
+    try:
+        return RavenParameters.from_json(text)
+    except (OSError, ValueError, TypeError) as error:
+        raise argparse.ArgumentTypeError(one_line(error)) from None
+
+
 def configure(args) -> CompareConfig:
     if args.test_data is not None and args.data is None:
         raise ValueError("--test-data needs --data (the training recording)")
+    if args.robot_params is not None and args.data is not None:
+        raise ValueError("--robot-params describes a simulated robot; it cannot be combined with --data")
     config = CompareConfig.quick(args.seed) if args.quick else CompareConfig(seed=args.seed)
     settings = config.settings if args.dnn_seeds is None else config.settings.with_(dnn_seeds=args.dnn_seeds)
     return replace(config, methods=args.methods, settings=settings)
@@ -369,6 +382,10 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--arm", choices=("left", "right"), default="left", help="with --data: the arm")
     parser.add_argument("--methods", type=names(ALL_METHODS, "method"), default=",".join(ALL_METHODS),
                         help=f"comma-separated method keys among {', '.join(ALL_METHODS)}")
+    parser.add_argument("--robot-params", type=robot_parameters, default=None, metavar="FILE.json",
+                        help="simulate a robot described by this parameter file (RavenParameters.to_json, "
+                             "e.g. written by python -m simulation.default_fit --out FILE.json) instead of "
+                             "the default virtual RAVEN-II")
     parser.add_argument("--dnn-seeds", type=positive_int, default=None, help="network training seeds to average")
     with StudyRun(parser, argv, configure) as study:
         args, config = study.args, study.config
@@ -376,7 +393,7 @@ def main(argv: list[str] | None = None) -> dict:
             say(f"simulating the paper's protocol on the virtual RAVEN-II ({config.direction}, "
                 f"{len(config.sparsities)} sparsities, {config.test_duration:.0f} s tests)...")
             data = simulated_comparison(config.seed, config.direction, config.sparsities, config.test_duration,
-                                        config.payload_kg)
+                                        config.payload_kg, params=args.robot_params)
         else:
             with study.reading(args.data if args.test_data is None else f"{args.data} or {args.test_data}"):
                 data = recorded_comparison(args.data, test_path=args.test_data, arm=args.arm,
@@ -384,6 +401,7 @@ def main(argv: list[str] | None = None) -> dict:
         say(f"data ready: {data.describe()}")
         comparison = compare(data, config, **study.parallel)
         run_options = {"quick": args.quick, "data": None if args.data is None else str(args.data),
+                       "robot_params": None if args.robot_params is None else args.robot_params.to_dict(),
                        "jobs": args.jobs, "backend": args.backend}
         document = results_document(comparison, config, started=study.started, runtime_s=study.stop_clock(),
                                     command=reporting.command_line(), run_options=run_options)

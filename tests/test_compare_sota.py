@@ -175,3 +175,27 @@ def test_a_folder_of_bags_is_one_recording_per_bag(tmp_path):
     assert len(data.tests["test"]) == pytest.approx(0.25 * joined, abs=1)
     assert data.train.has_motor_torques and data.train.tool_joints is not None
     assert np.all(np.diff(data.tests["test"].time) > 0)
+
+
+class _Simulated(Exception):
+    """Raised by a stand-in of the simulator to stop a run once the robot it was given is known."""
+
+
+def test_robot_params_file_is_the_robot_that_is_simulated(tmp_path, monkeypatch):
+    from simulation.model.parameters import RavenParameters
+    from studies.common import data_sources
+
+    stiffer = RavenParameters.from_dict({"effects": {"cable_stretch": {"stiffness": [900.0, 800.0, 2000.0]}}})
+    path = stiffer.to_json(tmp_path / "robot.json")
+    given = {}
+
+    def protocol(params=None, **options):
+        given["params"] = params
+        raise _Simulated
+
+    monkeypatch.setattr(data_sources, "paper_protocol", protocol)
+    with pytest.raises(_Simulated):
+        compare_sota.main(["--quick", "--robot-params", str(path), "--out", str(tmp_path / "out")])
+    assert given["params"] == stiffer
+    np.testing.assert_array_equal(given["params"].effect("cable_stretch").stiffness, [900.0, 800.0, 2000.0])
+    assert not (tmp_path / "out").exists()

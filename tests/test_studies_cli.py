@@ -45,6 +45,8 @@ def workspace(tmp_path):
     (tmp_path / "empty").mkdir()
     (tmp_path / "corrupt.parquet").write_bytes(b"PAR1 this is not a parquet file")
     (tmp_path / "corrupt.bag").write_bytes(b"#ROSBAG V2.0\n\x00\x01 truncated")
+    (tmp_path / "robot_unknown.json").write_text('{"effects": {"cable_stretch": {"stiffnes": [1, 2, 3]}}}\n')
+    (tmp_path / "robot_corrupt.json").write_text('{"arm": "left", \n')
     return tmp_path
 
 
@@ -53,6 +55,10 @@ def workspace(tmp_path):
 SCRIPT_MISTAKES = [
     ("compare_sota", ["--data", "{tmp}/empty"], "holds no .bag or .parquet"),
     ("compare_sota", ["--data", "{tmp}/corrupt.parquet"], "corrupt.parquet"),
+    ("compare_sota", ["--robot-params", "{tmp}/missing.json"], "missing.json does not exist"),
+    ("compare_sota", ["--robot-params", "{tmp}/robot_unknown.json"], "unknown field 'stiffnes'"),
+    ("compare_sota", ["--robot-params", "{tmp}/robot_corrupt.json"], "not a valid JSON"),
+    ("compare_sota", ["--robot-params", "{tmp}/robot_corrupt.json", "--data", "{tmp}/empty"], "robot_corrupt.json"),
     ("directions", ["--jobs", "0"], "--jobs"),
     ("discrepancy", ["--sweep", "--seeds", "0"], "--seeds"),
     ("discrepancy", ["--measured", "{tmp}/corrupt.bag"], "corrupt.bag"),

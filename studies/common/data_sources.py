@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from simulation import paper_protocol, recording_to_dataset
+from simulation.model.parameters import RavenParameters
 from simulation.recordings.dataset import CalibrationDataset, synchronize
 from simulation.recordings.bags import read_bag, read_bag_folder
 from simulation.recordings.dvrk import SPLITS as DVRK_SPLITS
@@ -60,13 +61,15 @@ class ComparisonData:
 
 
 def simulated_comparison(seed: int = 0, direction: str = "J2-J3", sparsities=PAPER_SPARSITIES,
-                         test_duration: float = 1200.0, payload_kg: float = 0.5) -> ComparisonData:
+                         test_duration: float = 1200.0, payload_kg: float = 0.5,
+                         params: RavenParameters | None = None) -> ComparisonData:
     """The paper's protocol on the virtual RAVEN-II, as training and test samples.
 
     The calibration is recorded unloaded; the ``"loaded"`` test hangs ``payload_kg`` at the tool
-    tip, which no training sample saw.
+    tip, which no training sample saw. ``params`` describes the simulated robot (default: the
+    virtual RAVEN-II, ``RavenParameters()``); the methods see only its logs.
     """
-    runs = paper_protocol(seed=seed, direction=direction, sparsities=tuple(sparsities),
+    runs = paper_protocol(params, seed=seed, direction=direction, sparsities=tuple(sparsities),
                           test_duration=test_duration, loaded_payload_kg=payload_kg)
     robot = raven_model(runs.calibration.arm)
     train = Samples.from_dataset(recording_to_dataset(runs.calibration, robot))
@@ -77,7 +80,8 @@ def simulated_comparison(seed: int = 0, direction: str = "J2-J3", sparsities=PAP
              f"({train.duration:.0f} s, unloaded); tests: independent random motions of "
              f"{test_duration:.0f} s, unloaded and with {payload_kg * 1e3:.0f} g at the tool tip "
              "(the load is not in the training data).",)
-    return ComparisonData(train, tests, f"virtual RAVEN-II ({runs.calibration.arm} arm, seed {seed})", notes)
+    robot_name = "virtual RAVEN-II" if params is None or params == RavenParameters(arm=params.arm) else "simulated robot (given parameters)"
+    return ComparisonData(train, tests, f"{robot_name} ({runs.calibration.arm} arm, seed {seed})", notes)
 
 
 # ---------------------------------------------------------------------------------------------
