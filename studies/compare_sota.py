@@ -23,6 +23,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from scipy import stats
 
 from simulation.model.parameters import RavenParameters
 from simulation.trajectories import PAPER_SPARSITIES
@@ -123,18 +124,40 @@ def _rounded(values) -> list[float] | None:
     return None if values is None else [round(float(v), 6) for v in values]
 
 
+def interval95(values) -> list[list[float]]:
+    """Student-t 95 % interval of the mean of each column of ``values`` (one row per seed).
+
+    With one row (a deterministic method, or one seed) the interval is the value itself: the run
+    says nothing about the spread, and ``n_seeds`` in ``results.json`` says so.
+    """
+    values = np.atleast_2d(np.asarray(values, dtype=float))
+    mean = values.mean(axis=0)
+    n = values.shape[0]
+    if n < 2:
+        return [[float(m), float(m)] for m in mean]
+    half = stats.t.ppf(0.975, n - 1) * values.std(axis=0, ddof=1) / np.sqrt(n)
+    return [[float(m - h), float(m + h)] for m, h in zip(mean, half)]
+
+
+def _rounded_pairs(pairs) -> list[list[float]]:
+    return [[round(low, 6), round(high, 6)] for low, high in pairs]
+
+
 def test_results(comparison: Comparison, test: str) -> dict:
-    """``{"joint_rmse": {method: [j1 deg, j2 deg, j3 mm] | None}, "cartesian_rmse": {...}, ...}``."""
-    joint, joint_std, cartesian, cartesian_std = {}, {}, {}, {}
+    """``{"joint_rmse": {method: [j1 deg, j2 deg, j3 mm] | None}, "joint_rmse_ci95": {method: [[low,
+    high]] * 3 | None}, "cartesian_rmse": {...}, ...}``: means and 95 % intervals over the seeds."""
+    joint, joint_ci, joint_std, cartesian, cartesian_std = {}, {}, {}, {}, {}
     for key, run in comparison.runs.items():
         if not run.ok:
-            joint[key] = joint_std[key] = cartesian[key] = cartesian_std[key] = None
+            joint[key] = joint_ci[key] = joint_std[key] = cartesian[key] = cartesian_std[key] = None
             continue
         mean, std = run.mean(test), run.std(test)
         joint[key], joint_std[key] = _rounded(mean.joint), _rounded(std.joint)
+        joint_ci[key] = _rounded_pairs(interval95([o.scores[test].joint for o in run.outcomes]))
         cartesian[key], cartesian_std[key] = _rounded(mean.cartesian), _rounded(std.cartesian)
-    return {"joint_rmse": joint, "joint_rmse_std": joint_std, "cartesian_rmse": cartesian,
-            "cartesian_rmse_std": cartesian_std, "samples": len(comparison.data.tests[test])}
+    return {"joint_rmse": joint, "joint_rmse_ci95": joint_ci, "joint_rmse_std": joint_std,
+            "cartesian_rmse": cartesian, "cartesian_rmse_std": cartesian_std,
+            "samples": len(comparison.data.tests[test])}
 
 
 def ordering_holds(joint_rmse: dict) -> dict:
@@ -334,16 +357,24 @@ def summary_table(document: dict) -> str:
     labels = {key: method["label"] for key, method in document["methods"].items()}
     title = "RMSE (deg, deg, mm)"
     width = max(len(title), *(len(label) for label in labels.values()))
-    header = " " * width + "".join(f"  {test + ' test':^23}" for test in tests)
-    units = f"{title:<{width}}" + "".join("       J1      J2      J3" for _ in tests)
+    header = " " * width + "".join(f"  {test + ' test':^41}" for test in tests)
+    units = f"{title:<{width}}" + "".join(" " + "".join(f"{j:>8}       " for j in ("J1", "J2", "J3")) for _ in tests)
     lines = [header, units]
     for key, label in labels.items():
         cells = []
         for test in tests:
             values = document[test]["joint_rmse"][key]
-            cells.append("".join(f"{v:8.3f}" for v in values) if values is not None else f"{'-':>8}" * 3)
+            intervals = document[test]["joint_rmse_ci95"][key]
+            if values is None:
+                cells.append(f"{'-':>14}" * 3)
+                continue
+            halves = [(high - low) / 2 for low, high in intervals]
+            cells.append("".join(f"{v:8.3f}" + (f" ±{h:5.3f}" if h > 0 else " " * 7) for v, h in zip(values, halves)))
         note = "" if document["methods"][key]["status"] == "ok" else f"  ({document['methods'][key]['note']})"
         lines.append(f"{label:<{width}}" + "".join(f" {cell}" for cell in cells) + note)
+    lines.append("± : half-width of the 95 % Student-t interval over a method's training seeds (n_seeds in "
+                 "results.json); no ± : one run (a deterministic method or one seed). Every method sees the "
+                 "same simulated recordings.")
     for test in tests:
         events = document[test].get("ukf_events")
         if events is not None:

@@ -199,3 +199,28 @@ def test_robot_params_file_is_the_robot_that_is_simulated(tmp_path, monkeypatch)
     assert given["params"] == stiffer
     np.testing.assert_array_equal(given["params"].effect("cable_stretch").stiffness, [900.0, 800.0, 2000.0])
     assert not (tmp_path / "out").exists()
+
+
+def test_intervals_sit_beside_the_means_in_the_documented_layout(document):
+    for test in document["tests"]:
+        for key, mean in document[test]["joint_rmse"].items():
+            interval = document[test]["joint_rmse_ci95"][key]
+            if mean is None:
+                assert interval is None
+                continue
+            assert len(interval) == 3 and all(len(pair) == 2 for pair in interval)
+            for value, (low, high) in zip(mean, interval):
+                assert low <= value + 1e-9 and value <= high + 1e-9
+            if document["methods"][key]["n_seeds"] == 1:
+                assert all(low == high for low, high in interval)
+
+
+def test_interval_is_the_student_t_interval_of_the_seed_means():
+    from scipy import stats
+
+    runs = np.array([[0.10, 0.30, 0.20], [0.14, 0.26, 0.22], [0.12, 0.35, 0.19]])
+    for column, (low, high) in enumerate(compare_sota.interval95(runs)):
+        values = runs[:, column]
+        expected = stats.t.interval(0.95, len(values) - 1, loc=values.mean(), scale=stats.sem(values))
+        np.testing.assert_allclose([low, high], expected, rtol=1e-12)
+    assert compare_sota.interval95([[0.1, 0.2, 0.3]]) == [[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]
