@@ -18,14 +18,12 @@ tables beside the paper's.
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 from scipy import stats
 
-from simulation.model.parameters import RavenParameters
 from simulation.trajectories import PAPER_SPARSITIES
 from studies.common import paper_numbers as paper
 from studies.common import plots, reporting
@@ -41,9 +39,9 @@ from studies.common.runner import (
     StudyRun,
     existing_path,
     names,
-    one_line,
     open_fraction,
     positive_int,
+    robot_parameters,
     say,
     study_parser,
 )
@@ -381,14 +379,6 @@ def summary_table(document: dict) -> str:
             lines.append(f"UKF on the {test} test: {events['rejected']} readings rejected, {events['coasted']} samples "
                          f"coasted through, {events['reinitialised']} re-initialisations")
     return "\n".join(lines)
-
-
-def robot_parameters(text: str) -> RavenParameters:
-    """An argument type: a robot parameter file (JSON of :meth:`RavenParameters.to_json`), read now."""
-    try:
-        return RavenParameters.from_json(text)
-    except (OSError, ValueError, TypeError) as error:
-        raise argparse.ArgumentTypeError(one_line(error)) from None
 
 
 def configure(args) -> CompareConfig:

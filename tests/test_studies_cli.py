@@ -60,6 +60,8 @@ SCRIPT_MISTAKES = [
     ("compare_sota", ["--robot-params", "{tmp}/robot_corrupt.json"], "not a valid JSON"),
     ("compare_sota", ["--robot-params", "{tmp}/robot_corrupt.json", "--data", "{tmp}/empty"], "robot_corrupt.json"),
     ("directions", ["--jobs", "0"], "--jobs"),
+    ("model_mismatch", ["--lams", "0,-1"], "--lams"),
+    ("model_mismatch", ["--robot-params", "{tmp}/robot_unknown.json"], "unknown field 'stiffnes'"),
     ("discrepancy", ["--sweep", "--seeds", "0"], "--seeds"),
     ("discrepancy", ["--measured", "{tmp}/corrupt.bag"], "corrupt.bag"),
     ("homing", ["--out", "{tmp}/a_file.txt"], "is a file"),
@@ -191,7 +193,8 @@ def test_a_successful_run_replaces_the_previous_results_as_a_whole(workspace):
     assert sorted(p.name for p in out.iterdir()) == ["results.json"]
     assert json.loads((out / "results.json").read_text()) == {"new": True}
     assert sorted(p.name for p in workspace.iterdir()) == ["a_file.txt", "corrupt.bag", "corrupt.parquet",
-                                                            "empty", "previous"]
+                                                            "empty", "previous", "robot_corrupt.json",
+                                                            "robot_unknown.json"]
 
 
 def test_a_folder_holding_other_things_keeps_them(workspace):

@@ -168,6 +168,17 @@ def existing_path(text: str) -> Path:
     return path
 
 
+def robot_parameters(text: str):
+    """An argument type: a robot parameter file (JSON of ``RavenParameters.to_json``), read now, so
+    that a missing, corrupt or unknown-field file stops the run before any simulation."""
+    from simulation.model.parameters import RavenParameters
+
+    try:
+        return RavenParameters.from_json(text)
+    except (OSError, ValueError, TypeError) as error:
+        raise argparse.ArgumentTypeError(one_line(error)) from None
+
+
 def names(known: Sequence[str], what: str) -> Callable[[str], tuple[str, ...]]:
     """An argument type: comma-separated names among ``known``, duplicates dropped, order kept."""
     def parse(text: str) -> tuple[str, ...]:

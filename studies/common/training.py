@@ -199,16 +199,19 @@ def fit_grid(cells: Sequence[GridCell], *, seed: int = 0, n_jobs: int = -1, back
     """Train every cell with each of its method's seeds, in parallel; outcomes per cell key, seed order.
 
     The seeds of a method are the same in every cell (the paper repeated its DNN with the same 5
-    global seeds for every training set), so cells differ only by their data.
+    global seeds for every training set), so cells differ only by their data. The full robot
+    state is shipped to workers only for the methods that need it (the UKF).
     """
     keys = [cell.key for cell in cells]
     if len(set(keys)) != len(keys):
         raise ValueError("grid cell keys must be unique")
     tasks, owners = [], []
     for cell in cells:
+        heavy = cell.method.needs_robot_state
+        train = cell.train if heavy else cell.train.without_dataset()
+        tests = dict(cell.tests) if heavy else {name: test.without_dataset() for name, test in cell.tests.items()}
         for method_seed in seeds_for(cell.method, seed):
-            tasks.append((cell.method, method_seed, cell.train.without_dataset(),
-                          {name: test.without_dataset() for name, test in cell.tests.items()}, False))
+            tasks.append((cell.method, method_seed, train, tests, False))
             owners.append(cell.key)
     order = sorted(range(len(tasks)), key=lambda i: -tasks[i][0].cost * len(tasks[i][2]))
     results = run_tasks(fit_and_score, [tasks[i] for i in order], n_jobs=n_jobs, backend=backend,
