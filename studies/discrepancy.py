@@ -34,9 +34,11 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from simulation.discrepancy import DiscrepancyResult, localize, strongest_dependence
 from simulation.discrepancy.signals import pooled_rmse, report_scale
@@ -64,6 +66,7 @@ from studies.common.runner import (
     non_negative_int,
     positive_float,
     positive_int,
+    say,
     script_parser,
 )
 
@@ -314,7 +317,8 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
     return [json_path, md_path, *figures]
 
 
-def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left"):
+def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
+            progress: bool = False):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     Returns the result, signals and split. ``shown_path`` is the input's name in the report (where
@@ -325,7 +329,9 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     import time
 
     clock = time.perf_counter()
-    result, signals, split = analyse_measured(path) if arm == "left" else run_on_raven_dataset(read_measured(path, arm))
+    say("identifying the starting model and screening the library...")
+    result, signals, split = (analyse_measured(path, progress=progress) if arm == "left"
+                              else run_on_raven_dataset(read_measured(path, arm), progress=progress))
     source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
               "description": f"RAVEN-II data {Path(shown_path or path).name}"}
     write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s)
@@ -401,7 +407,7 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
     return document
 
 
-def sweep(effects, seeds, duration: float, out: Path) -> dict:
+def sweep(effects, seeds, duration: float, out: Path, progress: bool = True) -> dict:
     """Hide each effect with each seed, through the file and the blind analysis, with the oracle:
     the confusion matrix of hidden vs named (first named) and the shrink beside the oracle's."""
     import tempfile
@@ -421,7 +427,9 @@ def sweep(effects, seeds, duration: float, out: Path) -> dict:
         named = result.named_effects[0] if result.named_effects else ("unexplained" if result.unexplained else "none")
         return effect, seed, named, list(result.named_effects), float(result.shrink), oracle_shrink
 
-    runs = Parallel(n_jobs=-1)(delayed(one)(e, s) for e in effects for s in seeds)
+    jobs = [(e, s) for e in effects for s in seeds]
+    results = Parallel(n_jobs=-1, return_as="generator")(delayed(one)(e, s) for e, s in jobs)
+    runs = list(tqdm(results, total=len(jobs), desc="hidden-effect runs", disable=not progress, file=sys.stderr))
     columns = sorted({r[2] for r in runs} | set(effects) | {"unexplained"}, key=lambda n: (n != "none", n))
     matrix = {e: {c: sum(1 for r in runs if r[0] == e and r[2] == c) for c in columns} for e in effects}
     rows = [[e] + [matrix[e][c] for c in columns] for e in effects]
@@ -465,18 +473,21 @@ def main(argv=None) -> int:
     parser.add_argument("--arm", default="left", choices=("left", "right"),
                         help="arm of --measured bags or CSV files (Parquet dataset files record theirs)")
     parser.add_argument("--out", type=Path, default=Path("results") / "discrepancy")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     with StudyRun(parser, argv) as study:
         args = study.args
+        progress = not args.no_progress and sys.stderr.isatty()
         if args.sweep:
-            sweep(SWEEP_EFFECTS, range(args.seed, args.seed + args.seeds), args.duration, study.folder)
+            sweep(SWEEP_EFFECTS, range(args.seed, args.seed + args.seeds), args.duration, study.folder, progress)
             study.publish()
             study.done()
             return 0
         if args.hidden_effect is not None:
+            say(f"generating {args.duration:.0f} s of motion with {', '.join(args.hidden_effect) or 'nothing'} hidden...")
             dataset, generator = generate_measured(args.hidden_effect, seed=args.seed, duration=args.duration)
             path = write_measured(dataset, study.folder)
             del dataset
-            result, signals, split = analyse(path, study.folder, shown_path=study.final(path))
+            result, signals, split = analyse(path, study.folder, shown_path=study.final(path), progress=progress)
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result)
         elif args.ablate is not None:
             result, signals, split, generator = run_ablation(args.ablate, seed=args.seed, duration=args.duration,
@@ -498,7 +509,7 @@ def main(argv=None) -> int:
         else:
             with study.reading(args.measured):
                 read_measured(args.measured, args.arm)  # an unreadable input is a one-line usage error, before any work
-            result, signals, split = analyse(args.measured, study.folder, arm=args.arm)
+            result, signals, split = analyse(args.measured, study.folder, arm=args.arm, progress=progress)
         study.publish()
     units = _unit_names(result.units)
     print(f"named effects: {', '.join(result.named_effects) or 'none'}; unexplained: {result.unexplained}")

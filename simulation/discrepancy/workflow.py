@@ -24,10 +24,12 @@ and the weighted two-channel residual is what tells them apart.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from simulation.discrepancy.candidates import Candidate, library
 from simulation.discrepancy.generic import NominalModel
@@ -269,7 +271,7 @@ def _transplant(source, target, names):
 
 def run_workflow(model, signals: MeasuredSignals, split: Split, settings: WorkflowSettings = WorkflowSettings(),
                  candidates: list[Candidate] | None = None, robot=None, exclude: tuple[str, ...] = (),
-                 base: BaseIdentifier | None = None) -> DiscrepancyResult:
+                 base: BaseIdentifier | None = None, progress: bool = False) -> DiscrepancyResult:
     """Steps 1-5 from a starting ``model`` (a :class:`~simulation.discrepancy.replay.RavenModel` or
     :class:`~simulation.discrepancy.generic.NominalModel`) identified from the measured data.
 
@@ -281,6 +283,8 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
     can fit is tried by re-identifying the extended structure, and any other candidate is
     backfitted: fitted on top of the model, then the structure re-identified on the joints with the
     candidate's share removed, then the candidate fitted again.
+
+    ``progress`` shows a bar (on stderr) over the candidates fitted in each iteration.
     """
     if robot is None and signals.kind == "raven":
         from kinematics import RavenII
@@ -342,7 +346,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                                                 initial=theta, starts=1, max_iter=30)
                 trial = with_fitted_offsets(trial)
         return trial, theta
-    for _ in range(settings.max_iterations):
+    for iteration in range(settings.max_iterations):
         # each channel weighs by its current misfit, so what is left after an effect is named counts
         current_fit = on(model, split.fit)
         weights = ChannelWeights.from_residual(current_fit.joints, current_fit.torque, 1e-3 / report_scale(units))
@@ -355,6 +359,8 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                           key=lambda t: t[0])
         scores = []
         best = None
+        bar = tqdm(total=min(len(screened), settings.screen_top), desc=f"iteration {iteration + 1}: fitting candidates",
+                   disable=not progress, file=sys.stderr, leave=False)
         for rank, (chi, scanned, candidate) in enumerate(screened):
             if rank >= settings.screen_top:
                 scores.append(CandidateScore(candidate.name, chi, False, {}, np.nan, np.nan))
@@ -368,6 +374,8 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
             scores.append(CandidateScore(candidate.name, chi, True, values, gap, bic, fit_gap))
             if best is None or bic < best[0]:
                 best = (bic, gap, fit_gap, candidate, trial, values)
+            bar.update()
+        bar.close()
         accepted = None
         if best is not None:
             bic, gap, fit_gap, candidate, trial, values = best

@@ -178,16 +178,16 @@ def raven_library(signals: MeasuredSignals, names=LIBRARY):
 
 
 def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: WorkflowSettings = WorkflowSettings(),
-                         fractions=(0.5, 0.25, 0.25), exclude=(), candidates=LIBRARY
+                         fractions=(0.5, 0.25, 0.25), exclude=(), candidates=LIBRARY, progress: bool = False
                          ) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
     """The workflow on a RAVEN-II dataset: split in time, identify ``structure`` on the fit part,
-    screen the ``candidates`` (effect names)."""
+    screen the ``candidates`` (effect names); ``progress`` shows the candidate fits on stderr."""
     signals = MeasuredSignals.from_dataset(dataset)
     split = Split.by_time(signals, fractions)
     base = raven_base_identifier(dataset, split.fit, structure)
     model = base.identify(tuple(structure), None)
     return run_workflow(model, signals, split, settings, candidates=raven_library(signals, candidates),
-                        exclude=exclude, base=base), signals, split
+                        exclude=exclude, base=base, progress=progress), signals, split
 
 
 def read_measured(path, arm: str = "left"):
@@ -202,14 +202,14 @@ def read_measured(path, arm: str = "left"):
     return dataset.select(dataset.valid_mask()) if dataset.n_invalid else dataset
 
 
-def analyse_measured(path) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+def analyse_measured(path, progress: bool = False) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
     """The blind analysis of RAVEN-II data: all it knows is the file (or folder) at ``path``.
 
     Always the same :data:`STARTING_STRUCTURE`, identified on the first half of the record, the
     same :data:`LIBRARY` of candidates and the default :class:`WorkflowSettings`: no seed, no
     generator, no name of what the data may hide.
     """
-    return run_on_raven_dataset(read_measured(path))
+    return run_on_raven_dataset(read_measured(path), progress=progress)
 
 
 def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=None):
