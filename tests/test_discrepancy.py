@@ -159,8 +159,9 @@ def test_an_effect_missing_from_the_library_is_unexplained_with_a_signature(cli_
 def test_generation_and_analysis_meet_only_through_the_file(cli_runs, tmp_path):
     from studies.discrepancy import main
 
-    # the analysis takes a path and nothing else
-    assert list(inspect.signature(analyse_measured).parameters) == ["path"]
+    # the analysis takes a path and nothing else (besides whether to draw a progress bar)
+    assert list(inspect.signature(analyse_measured).parameters) == ["path", "progress"]
+    assert inspect.signature(analyse_measured).parameters["progress"].kind is inspect.Parameter.KEYWORD_ONLY
     generated = cli_runs("none")
     copy = tmp_path / "elsewhere" / "measured.parquet"
     copy.parent.mkdir()

@@ -202,7 +202,7 @@ def read_measured(path, arm: str = "left"):
     return dataset.select(dataset.valid_mask()) if dataset.n_invalid else dataset
 
 
-def analyse_measured(path, progress: bool = False) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+def analyse_measured(path, *, progress: bool = False) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
     """The blind analysis of RAVEN-II data: all it knows is the file (or folder) at ``path``.
 
     Always the same :data:`STARTING_STRUCTURE`, identified on the first half of the record, the
