@@ -119,11 +119,12 @@ def finding(results: dict) -> str:
     simulated = ("directions by mean % of fixed offset (learned models, 3 joints): "
                  + ", ".join(f"{d} {p:.1f}%" for d, p in ranking) + ".")
     if "J2-J3" not in results["rmse"]:
-        return reporting.agreement_line(False, simulated + " (J2-J3 was not run)", paper.FINDINGS["directions"])
+        return reporting.agreement_line(False, simulated + " (J2-J3 was not run)", paper.FINDINGS["directions"],
+                                        paper.FINDING_KIND["directions"])
     return reporting.agreement_line(
         best == "J2-J3", simulated,
         paper.FINDINGS["directions"] + f" (same measure on Table I: {paper_rank[0][0]} {paper_rank[0][1]:.1f}%, "
-        f"{paper_rank[1][0]} {paper_rank[1][1]:.1f}%.)")
+        f"{paper_rank[1][0]} {paper_rank[1][1]:.1f}%.)", paper.FINDING_KIND["directions"])
 
 
 def tables(results: dict) -> list[str]:

@@ -118,7 +118,8 @@ def finding(results: dict) -> str:
     simulated = ("DNN joint 2 RMSE before re-homing / mean after re-homings: "
                  + "; ".join(f"{session} {v['before']:.3f} / {v['after_mean']:.3f} deg" for session, v in j2.items())
                  + ".")
-    return reporting.agreement_line(degrades and helped, simulated, paper.FINDINGS["homing"])
+    return reporting.agreement_line(degrades and helped, simulated, paper.FINDINGS["homing"],
+                                    paper.FINDING_KIND["homing"])
 
 
 def tables(results: dict) -> list[str]:

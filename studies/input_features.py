@@ -133,7 +133,8 @@ def finding(results: dict) -> str:
               n["dnn_large_all"] < n["dnn_all"], n["dnn_large_all"] > n["dnn_selected"]]
     simulated = ("RMSE relative to fixed offset (mean over joints and hours): "
                  + ", ".join(f"{label} {n[key]:.2f}" for key, label, *_ in VARIANTS if key != "fixed_offset") + ".")
-    return reporting.agreement_line(all(checks), simulated, paper.FINDINGS["input_features"])
+    return reporting.agreement_line(all(checks), simulated, paper.FINDINGS["input_features"],
+                                    paper.FINDING_KIND["input_features"])
 
 
 def tables(results: dict) -> list[str]:

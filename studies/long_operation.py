@@ -122,7 +122,8 @@ def finding(results: dict) -> str:
     simulated = ("change of RMSE from the first to the last hour (mean over joints, 3 longest training sets): "
                  + "; ".join(lines) + ".")
     complete = all(k in results["rmse_3_longest"] for k in KINDS)
-    return reporting.agreement_line(ordered and complete, simulated, paper.FINDINGS["long_operation"])
+    return reporting.agreement_line(ordered and complete, simulated, paper.FINDINGS["long_operation"],
+                                    paper.FINDING_KIND["long_operation"])
 
 
 def tables(results: dict) -> list[str]:

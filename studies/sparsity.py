@@ -126,7 +126,8 @@ def finding(results: dict) -> str:
                  f"training set ({longest}, {results['calibration_time_s'][longest]:.0f} s) the RMSE of joints "
                  "1/2/3 falls by " + "; ".join(f"{MODEL_LABELS[m]} " + "/".join(f"{v:.0f}%" for v in gain[m])
                                               for m in MODELS) + ".")
-    return reporting.agreement_line(learned_improve and fixed_less, simulated, paper.FINDINGS["sparsity"])
+    return reporting.agreement_line(learned_improve and fixed_less, simulated, paper.FINDINGS["sparsity"],
+                                    paper.FINDING_KIND["sparsity"])
 
 
 def tables(results: dict) -> list[str]:

@@ -121,7 +121,7 @@ def finding(results: dict) -> str:
     ratio = speedup(results)
     if ratio is None:
         return reporting.agreement_line(False, "linear regression and the DNN were not both timed.",
-                                        paper.FINDINGS["speed"])
+                                        paper.FINDINGS["speed"], paper.FINDING_KIND["speed"])
     claims = [ratio >= paper.TABLE_V["inference_speedup_linear_over_dnn"],
               t["linear"]["fit_s"] < paper.TABLE_V["training_time_s"]["linear"][1],
               t["dnn"]["fit_s"] < paper.TABLE_V["training_time_s"]["dnn"][1],
@@ -131,7 +131,8 @@ def finding(results: dict) -> str:
                  f"the 1 ms servo period); predict() {speedup(results, 'predict_us'):.2g}x; training linear "
                  f"{t['linear']['fit_s']:.2f} s, DNN {t['dnn']['fit_s']:.1f} s on {results['n_train']} x "
                  f"{results['n_features']}.")
-    return reporting.agreement_line(all(claims), simulated, paper.FINDINGS["speed"])
+    return reporting.agreement_line(all(claims), simulated, paper.FINDINGS["speed"],
+                                    paper.FINDING_KIND["speed"])
 
 
 def tables(results: dict) -> list[str]:

@@ -93,7 +93,8 @@ def finding(results: dict) -> str:
                  + "; linear " + "/".join(f"{1 + d:.3f}" for d in linear_same) + "; polynomial "
                  + "/".join(f"{e2e / err:.3f}" for err, e2e in zip(r["polynomial"]["error"], r["polynomial"]["end_to_end"]))
                  + ".")
-    return reporting.agreement_line(agrees, simulated, paper.FINDINGS["train_on_error"])
+    return reporting.agreement_line(agrees, simulated, paper.FINDINGS["train_on_error"],
+                                    paper.FINDING_KIND["train_on_error"])
 
 
 def tables(results: dict) -> list[str]:

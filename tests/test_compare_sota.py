@@ -94,7 +94,7 @@ def test_report_puts_simulated_rows_beside_the_published_ones(comparison, docume
     assert [row[4:] for row in published if row[0] == "Ours, Table I (J2-J3)" and row[2] == "DNN"] == \
         [[0.104, 0.120, 0.118]]
     report = compare_sota.report_markdown(result, document, [], tmp_path)
-    assert "published (Table IV, unloaded)" in report and "**Finding: AGREES" in report
+    assert "published (Table IV, unloaded)" in report and "**Finding (test): AGREES" in report
 
 
 def test_config_rejects_unknown_methods_and_bad_durations():

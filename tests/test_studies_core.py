@@ -252,7 +252,17 @@ def test_tables_and_json_are_plain(tmp_path):
     path = write_json(tmp_path / "r.json", {"v": np.array([1.0, np.nan]), "n": np.int64(3)})
     assert json.loads(path.read_text()) == {"v": [1.0, None], "n": 3}
     assert to_jsonable(MethodSettings())["dnn_seeds"] == 5
-    assert agreement_line(False, "a", "b").startswith("**Finding: DOES NOT AGREE")
+    assert agreement_line(False, "a", "b").startswith("**Finding (test): DOES NOT AGREE")
+    assert "AGREE" not in agreement_line(True, "a", "b", "built in")
+    with pytest.raises(ValueError, match="kind must be one of"):
+        agreement_line(True, "a", "b", "tuned")
+
+
+def test_every_study_says_whether_its_finding_is_built_in():
+    from studies.common.paper_numbers import FINDING_KIND, FINDINGS
+
+    assert set(FINDINGS) | {"compare_sota"} == set(FINDING_KIND)
+    assert set(FINDING_KIND.values()) <= {"test", "built in"}
 
 
 # --- paper numbers -----------------------------------------------------------------------------

@@ -37,7 +37,7 @@ def test_directions_table_i_quantities(direction_results):
 
 def test_directions_finding_and_tables(direction_results):
     line = directions.finding(direction_results)
-    assert line.startswith("**Finding:") and "J2-J3" in line and "J1" in line
+    assert line.startswith("**Finding (") and "J2-J3" in line and "J1" in line
     sections = "\n".join(directions.tables(direction_results))
     assert "| J2-J3 |" in sections and "0.104 (12.1%)" in sections  # the paper's J2-J3 DNN, joint 1
 

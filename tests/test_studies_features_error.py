@@ -34,7 +34,7 @@ def test_input_features_reduced_run():
         assert np.all(np.isfinite(values)), key
         assert np.allclose(values, np.mean([r["rmse_per_hour"][key][h] for h in r["hours"]], axis=0))
     assert input_features.normalized(r, "fixed_offset") == pytest.approx(1.0)
-    assert input_features.finding(r).startswith("**Finding:")
+    assert input_features.finding(r).startswith("**Finding (")
     assert not r["failures"]
 
 

@@ -33,7 +33,7 @@ def test_homing_reduced_run_and_finding():
     j2 = homing.joint2_after_homing(r)
     values = [r["rmse"]["seen 0"]["dnn"][h][1] for h in r["homings"]]
     assert j2["seen 0"]["after_mean"] == pytest.approx(np.mean(values[1:]))
-    assert homing.finding(r).startswith("**Finding:")
+    assert homing.finding(r).startswith("**Finding (")
     with pytest.raises(ValueError, match="at least 2"):
         homing.HomingConfig(sparsities=(1 / 3,))
 

@@ -67,8 +67,11 @@ def test_finding_needs_idle_below_unloaded_below_loaded():
         return {"hours": {k: ["hour 0", "hour 5"] for k in KINDS},
                 "rmse_3_longest": {k: {m: {"hour 0": [1.0, 1.0, 1.0], "hour 5": [1 + rel[k]] * 3}
                                        for m in ("dnn", "linear")} for k in KINDS}}
-    assert "AGREES" in lo.finding(fake({"idle": 0.0, "unloaded": 0.2, "loaded": 0.5}))
-    assert "DOES NOT AGREE" in lo.finding(fake({"idle": 0.3, "unloaded": 0.2, "loaded": 0.5}))
+    # the simulator's drift was tuned to this ordering: it is reported as reproduced, never as agreement
+    reproduced = lo.finding(fake({"idle": 0.0, "unloaded": 0.2, "loaded": 0.5}))
+    assert "built in" in reproduced and ": reproduced." in reproduced and "AGREE" not in reproduced
+    missed = lo.finding(fake({"idle": 0.3, "unloaded": 0.2, "loaded": 0.5}))
+    assert "NOT reproduced" in missed and "AGREE" not in missed
     assert lo.relative_decay(fake({"idle": 0.0, "unloaded": 0.2, "loaded": 0.5}), "dnn")["loaded"] == \
         pytest.approx(0.5)
 

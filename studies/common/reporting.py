@@ -113,10 +113,26 @@ def write_json(path: Path, results: Mapping[str, Any]) -> Path:
     return write_text(path, json.dumps(to_jsonable(results), indent=2, allow_nan=False) + "\n")
 
 
-def agreement_line(agrees: bool, simulated: str, paper: str) -> str:
-    """The one line each study ends with: does the simulation agree with the paper's finding?"""
-    verdict = "AGREES with the paper" if agrees else "DOES NOT AGREE with the paper"
-    return f"**Finding: {verdict}.** Simulated: {simulated} Paper: {paper}"
+FINDING_KINDS = ("test", "built in")
+"""How a study's finding relates to the simulator: a ``"test"`` (a prediction nothing was tuned to)
+or ``"built in"`` (the simulator's defaults were tuned so that it comes out)."""
+
+
+def agreement_line(agrees: bool, simulated: str, paper: str, kind: str = "test") -> str:
+    """The one line each study ends with.
+
+    A ``"test"`` is reported as agreement or disagreement with the paper; a ``"built in"`` finding
+    (the simulator was tuned to it, see ``simulation/model/effects.py``) only as reproduced or not,
+    because reproducing what the simulator was made to do says nothing about the paper.
+    """
+    if kind not in FINDING_KINDS:
+        raise ValueError(f"kind must be one of {FINDING_KINDS}, got {kind!r}")
+    if kind == "test":
+        verdict = "AGREES with the paper" if agrees else "DOES NOT AGREE with the paper"
+        return f"**Finding (test): {verdict}.** Simulated: {simulated} Paper: {paper}"
+    verdict = "reproduced" if agrees else "NOT reproduced"
+    return (f"**Finding (built in: the simulator was tuned to it, so this is no agreement): {verdict}.** "
+            f"Simulated: {simulated} Paper: {paper}")
 
 
 def report_header(title: str, command: str, started: str, runtime_s: float, config: Mapping[str, Any]) -> str:
