@@ -99,21 +99,23 @@ def interval95(values: np.ndarray) -> np.ndarray:
 
 
 def crossover(lams: np.ndarray, learned: np.ndarray, model_based: np.ndarray) -> float | None:
-    """Smallest ``lam`` where ``learned`` falls to or below ``model_based`` (linear interpolation).
+    """The ``lam`` from which ``learned`` stays at or below ``model_based`` (linear interpolation).
 
-    ``None`` when the learned calibrator never reaches the filter in the range; ``lams[0]`` when it
-    is already at or below it there.
+    The filter's error need not grow monotonically with ``lam`` (one diverging seed raises a mean),
+    so this is where the learned calibrator overtakes for good on the grid: ``None`` when it is
+    above at the largest ``lam``, ``lams[0]`` when it is never above.
     """
     difference = np.asarray(learned, dtype=float) - np.asarray(model_based, dtype=float)
     if not np.all(np.isfinite(difference)):
         return None
-    if difference[0] <= 0:
+    above = np.flatnonzero(difference > 0)
+    if above.size == 0:
         return float(lams[0])
-    for k in range(1, len(lams)):
-        if difference[k] <= 0:
-            a, b = difference[k - 1], difference[k]
-            return float(lams[k - 1] + (lams[k] - lams[k - 1]) * a / (a - b))
-    return None
+    k = int(above[-1])
+    if k == len(lams) - 1:
+        return None
+    a, b = difference[k], difference[k + 1]
+    return float(lams[k] + (lams[k + 1] - lams[k]) * a / (a - b))
 
 
 def run(config: MismatchConfig, *, robot: RavenParameters | None = None, n_jobs: int = -1, backend: str = "loky",
@@ -197,7 +199,7 @@ def tables(results: dict) -> list[str]:
         sections += [f"## {joint}, {results['test']} test", "", reporting.markdown_table(
             ["Method", *[f"lam = {lam:g}" for lam in results["lams"]]], rows), ""]
     rows = [[pair, *[_lam_text(v) for v in values]] for pair, values in results["crossover_lam"].items()]
-    sections += ["## Crossover: lam at which the learned calibrator's mean RMSE reaches the filter's", "",
+    sections += ["## Crossover: lam from which the learned calibrator's mean RMSE stays at or below the filter's", "",
                  reporting.markdown_table(["learned < model-based", *JOINT_HEADERS], rows), "",
                  f"Mean [95 % Student-t interval] over {len(results['simulation_seeds'])} simulation seeds per lam. "
                  f"Scaled effects (outside the filter's class): {', '.join(results['scaled_effects'])}; the filter "

@@ -80,8 +80,12 @@ def test_crossover_interpolates_where_the_learned_error_meets_the_filters():
     lams = np.array([0.0, 1.0, 2.0])
     assert crossover(lams, [0.3, 0.3, 0.3], [0.1, 0.2, 0.4]) == pytest.approx(1.5)
     assert crossover(lams, [0.3, 0.3, 0.3], [0.1, 0.2, 0.25]) is None
-    assert crossover(lams, [0.1, 0.3, 0.3], [0.2, 0.2, 0.2]) == 0.0
+    assert crossover(lams, [0.1, 0.3, 0.3], [0.2, 0.2, 0.2]) is None
+    assert crossover(lams, [0.1, 0.1, 0.1], [0.2, 0.2, 0.2]) == 0.0
     assert crossover(lams, [0.3, np.nan, 0.3], [0.1, 0.2, 0.4]) is None
+    # a filter that is worse at one lam only does not count as overtaken before it is for good
+    four = np.array([0.0, 0.5, 1.0, 2.0])
+    assert crossover(four, [0.3, 0.3, 0.3, 0.3], [0.1, 0.9, 0.2, 0.5]) == pytest.approx(1.0 + 1.0 / 3.0)
 
 
 def test_interval_is_the_student_t_interval():
