@@ -1,4 +1,4 @@
-"""The UKF's disturbance-torque states: an unmodelled payload's gravity, seen from the motor signals."""
+"""The UKF variants: disturbance-torque states (an unmodelled payload's gravity) and the learned-residual hybrid."""
 
 from __future__ import annotations
 
@@ -12,6 +12,9 @@ from kinematics import RavenII
 from simulation.engine.scenarios import powered_on, record_random_test
 from simulation.identification import MotorLog
 from simulation.model.parameters import RavenParameters
+from simulation.recordings.recording import recording_to_dataset
+from studies.common.methods import UKFHybridOnSamples
+from studies.common.samples import Samples
 
 OWN_MODEL = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction",
              "quantization", "noise")
@@ -58,3 +61,36 @@ def test_disturbance_state_cuts_the_loaded_joint_error_of_the_plain_filter(loade
 def test_a_negative_disturbance_density_is_refused():
     with pytest.raises(ValueError, match="disturbance_density"):
         UKFJointEstimator(disturbance_density=-1.0)._settings()
+
+
+@pytest.fixture(scope="module")
+def hybrid_samples():
+    """20 s to fit on and 10 s to test of the UKF's own model class, as study samples."""
+    params = RavenParameters().only(*OWN_MODEL)
+    robot = powered_on(params, seed=3)
+    kinematics = RavenII(params.arm, check_limits=False)
+    calibration = record_random_test(robot, 20.0, seed=21)
+    test = record_random_test(robot, 10.0, seed=22)
+    return (Samples.from_dataset(recording_to_dataset(calibration, kinematics)),
+            Samples.from_dataset(recording_to_dataset(test, kinematics)))
+
+
+def test_hybrid_adds_a_least_squares_fit_of_the_filters_causal_residual(hybrid_samples):
+    calibration, test = hybrid_samples
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hybrid = UKFHybridOnSamples(tuning="none").fit(calibration)
+        ukf_train = hybrid.filter_.predict(calibration)     # the filter run causally over its fit log
+        ukf_test = hybrid.filter_.predict(test)
+        predicted = hybrid.predict(test)
+    design = lambda samples, ukf: np.hstack([samples.X, ukf, np.ones((len(samples), 1))])
+    coefficients, *_ = np.linalg.lstsq(design(calibration, ukf_train), calibration.targets - ukf_train, rcond=None)
+    expected = ukf_test + design(test, ukf_test) @ coefficients
+    np.testing.assert_allclose(predicted, expected, atol=1e-6 * np.abs(expected).max())
+    assert hybrid.events_ == {"rejected": 0, "coasted": 0, "reinitialised": 0}
+
+
+def test_hybrid_needs_the_robot_state(hybrid_samples):
+    calibration, _ = hybrid_samples
+    with pytest.raises(ValueError, match="robot state"):
+        UKFHybridOnSamples().fit(calibration.without_dataset())
