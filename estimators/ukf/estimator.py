@@ -94,6 +94,10 @@ class UKFJointEstimator(BaseEstimator):
         estimates are unchanged; without ground truth the scale is 1.
     coast_noise_scale : factor on the process covariance over steps without a usable reading (1:
         the tuned noise; larger widens the reported spread while coasting).
+    disturbance_density : 0 (default) runs the 12-state filter; a positive value adds a disturbance
+        torque per positioning joint at the link (states 12-14, N m, N m, N), a random walk of this
+        density (N m s^-0.5; N s^-0.5 on the insertion axis). It absorbs an unknown payload's gravity
+        and unmodelled friction. A round-number hyper-parameter, not tuned.
     verbose : 0 prints nothing; 1 prints a line when the identification, the noise tuning and each
         filter run end (with their times), to stdout as scikit-learn does; 2 also prints each
         identification pass and every tuning run.
@@ -121,7 +125,8 @@ class UKFJointEstimator(BaseEstimator):
                  tuning_evaluations: int = 40, payload_kg: float = 0.0, alpha: float = 1.0, beta: float = 2.0,
                  kappa: float = 0.0, max_step: float = MAX_STEP, refresh: int = REFRESH, max_gap: float = 1.0,
                  gate_probability: float = 0.9999, max_inflation: float = 10.0, max_rejections: int = 10,
-                 coast_noise_scale: float = 1.0, covariance_calibration: bool = True, verbose: int = 0):
+                 coast_noise_scale: float = 1.0, covariance_calibration: bool = True,
+                 disturbance_density: float = 0.0, verbose: int = 0):
         self.effects = effects
         self.fixed = fixed
         self.base_parameters = base_parameters
@@ -143,6 +148,7 @@ class UKFJointEstimator(BaseEstimator):
         self.max_rejections = max_rejections
         self.coast_noise_scale = coast_noise_scale
         self.covariance_calibration = covariance_calibration
+        self.disturbance_density = disturbance_density
         self.verbose = verbose
 
     # ---- settings ------------------------------------------------------------------------
@@ -162,11 +168,14 @@ class UKFJointEstimator(BaseEstimator):
             raise ValueError(f"max_rejections must be >= 1, got {self.max_rejections!r}")
         if not (np.isfinite(self.coast_noise_scale) and self.coast_noise_scale >= 1.0):
             raise ValueError(f"coast_noise_scale must be a finite number >= 1, got {self.coast_noise_scale!r}")
+        if not (np.isfinite(self.disturbance_density) and self.disturbance_density >= 0.0):
+            raise ValueError(f"disturbance_density must be a finite number >= 0, got {self.disturbance_density!r}")
         return UKFSettings(alpha=float(self.alpha), beta=float(self.beta), kappa=float(self.kappa),
                            max_step=float(self.max_step), refresh=int(self.refresh), max_gap=float(self.max_gap),
                            gate_probability=float(self.gate_probability),
                            max_inflation=float(self.max_inflation), max_rejections=int(self.max_rejections),
-                           coast_noise_scale=float(self.coast_noise_scale))
+                           coast_noise_scale=float(self.coast_noise_scale),
+                           disturbance_density=float(self.disturbance_density))
 
     def _measurement_covariance(self, model: CableModel) -> np.ndarray:
         if self.measurement_noise is None:

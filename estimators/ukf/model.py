@@ -34,6 +34,13 @@ from simulation.model.parameters import RavenParameters
 
 N_STATE = 12
 U, UD, Q, QD = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
+N_DISTURBANCE_STATE = 15
+"""State size with a disturbance torque per positioning joint (states 12-14, N m, N m, N)."""
+D = slice(12, 15)
+DISTURBANCE_SPREAD = np.array([1.0, 1.0, 10.0])
+"""Initial standard deviation of the disturbance torques (N m, N m, N): the order of a kilogram at
+the tool tip (about 10 N on the insertion axis, a few tenths of a metre of lever on the shoulder and
+elbow), round numbers."""
 
 
 def _frozen(array) -> np.ndarray:

@@ -4,8 +4,12 @@ Between two log samples the filter holds the commanded motor torque (zero-order 
 controller holds its command for a servo tick) and integrates, for every sigma point at once,
 
     s  = A u + offset - q,            T = k x0 sinh(s / x0) + damping (A u' - q')
-    M(q) q'' = T - load_scale g(q) - (coulomb tanh(q' / v_s) + viscous q')
+    M(q) q'' = T - load_scale g(q) - (coulomb tanh(q' / v_s) + viscous q') + d
     J u''    = tau_u - A^T T - b u'
+
+where ``d`` is the disturbance torque at the links (N m, N m, N): zero for the 12-state filter,
+the last three states of the 15-state one (a random walk, held over the interval: an unknown
+payload's gravity or unmodelled friction, as a Kalman filter's disturbance observer takes it)
 
 with sub-steps of at most ``max_step`` (1 ms, the servo period): semi-implicit Euler for the cable
 and motors (as the simulator), and a linearly implicit step for the link friction, whose ``tanh``
@@ -48,7 +52,7 @@ from simulation.model.layout import (
     VISCOUS,
 )
 
-from estimators.ukf.model import N_STATE, CableModel
+from estimators.ukf.model import CableModel
 
 MAX_STEP = 1e-3
 """Longest integration sub-step (s): the RAVEN-II servo period."""
@@ -81,7 +85,9 @@ def _solve_3x3(a, b, out):
 
 @njit(cache=True, fastmath=FAST_MATH, error_model="numpy")
 def propagate_states(states, motor_torque, duration, max_step, refresh, table, coupling, gravity_coefficients, out):
-    """Integrate each row of ``states`` (m, 12) over ``duration`` seconds into ``out`` (m, 12).
+    """Integrate each row of ``states`` (m, 12 or 15) over ``duration`` seconds into ``out`` (same shape).
+
+    With 15 columns the last three are the disturbance torques at the links, held constant.
 
     ``motor_torque`` (3,) is held on the motor coordinates (N m, N m, N). ``table``, ``coupling`` and
     ``gravity_coefficients`` are a :class:`~estimators.ukf.model.CableModel`'s arrays.
@@ -101,6 +107,8 @@ def propagate_states(states, motor_torque, duration, max_step, refresh, table, c
     rhs = np.empty(3)
     dv = np.empty(3)
     lhs = np.empty((3, 3))
+    disturbance = np.zeros(3)
+    has_disturbance = states.shape[1] > 12
     mass = np.eye(3)
     gravity = np.zeros(3)
     law_sinh = np.empty(3)      # sinh and cosh of stretch / hardening, followed between refreshes
@@ -112,6 +120,8 @@ def propagate_states(states, motor_torque, duration, max_step, refresh, table, c
             ud[i] = states[j, 3 + i]
             q[i] = states[j, 6 + i]
             qd[i] = states[j, 9 + i]
+            if has_disturbance:
+                disturbance[i] = states[j, 12 + i]
         for sub in range(n_sub):
             fresh = sub % refresh == 0
             if fresh:
@@ -137,7 +147,7 @@ def propagate_states(states, motor_torque, duration, max_step, refresh, table, c
             for i in range(3):
                 friction, slope = friction_with_slope(qd, inverse_scale, coulomb, viscous, i)
                 lhs[i, i] += h * slope
-                rhs[i] = h * (tension[i] - gravity_load(gravity[i], load_scale[i]) - friction)
+                rhs[i] = h * (tension[i] - gravity_load(gravity[i], load_scale[i]) - friction + disturbance[i])
             _solve_3x3(lhs, rhs, dv)
             for i in range(3):
                 qd[i] += dv[i]
@@ -151,6 +161,8 @@ def propagate_states(states, motor_torque, duration, max_step, refresh, table, c
             out[j, 3 + i] = ud[i]
             out[j, 6 + i] = q[i]
             out[j, 9 + i] = qd[i]
+            if has_disturbance:
+                out[j, 12 + i] = disturbance[i]
 
 
 class ProcessModel:
@@ -173,7 +185,7 @@ class ProcessModel:
         self.refresh = int(refresh)
 
     def batch(self, states: np.ndarray, dt: float, motor_torque: np.ndarray) -> np.ndarray:
-        """All sigma points (m, 12) at once: the states ``dt`` seconds later."""
+        """All sigma points (m, 12 or 15) at once: the states ``dt`` seconds later."""
         states = np.ascontiguousarray(states, dtype=float)
         out = np.empty_like(states)
         propagate_states(states, np.asarray(motor_torque, dtype=float), float(dt), self.max_step, self.refresh,
@@ -181,5 +193,5 @@ class ProcessModel:
         return out
 
     def single(self, state: np.ndarray, dt: float, motor_torque: np.ndarray) -> np.ndarray:
-        """One sigma point (12,): filterpy's plain ``fx(x, dt, **fx_args)`` signature."""
-        return self.batch(np.reshape(state, (1, N_STATE)), dt, motor_torque)[0]
+        """One sigma point (12 or 15,): filterpy's plain ``fx(x, dt, **fx_args)`` signature."""
+        return self.batch(np.reshape(state, (1, -1)), dt, motor_torque)[0]

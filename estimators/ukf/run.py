@@ -30,6 +30,10 @@ per run):
   position standard deviation beyond ``COVARIANCE_LIMIT``, or ``max_rejections`` readings
   rejected in a row.
 
+With ``UKFSettings.disturbance_density`` > 0 the state carries a disturbance torque per joint
+(15 states); the same gating, coasting and divergence tests apply, and a re-initialisation
+restarts the disturbance at zero with its initial spread.
+
 The log's time stamps must be seconds at a RAVEN-II log rate (``LOG_RATE_RANGE``): a log in
 milliseconds or kiloseconds is refused.
 """
@@ -48,7 +52,7 @@ from simulation.model.constants import RavenConstants
 from simulation.recordings.limits import RE40_NO_LOAD_SPEED
 
 from estimators.ukf._filter import BatchUnscentedKalmanFilter, sigma_points
-from estimators.ukf.model import N_STATE, CableModel
+from estimators.ukf.model import DISTURBANCE_SPREAD, N_DISTURBANCE_STATE, N_STATE, CableModel
 from estimators.ukf.noise import ProcessNoise
 from estimators.ukf.process import MAX_STEP, REFRESH, ProcessModel
 from simulation.identification.samples import GAP_FACTOR
@@ -135,6 +139,12 @@ class UKFSettings:
     max_inflation: float = 10.0
     max_rejections: int = 10
     coast_noise_scale: float = 1.0
+    disturbance_density: float = 0.0
+
+    @property
+    def n_state(self) -> int:
+        """12 for the plain filter, 15 with the disturbance torques (``disturbance_density`` > 0)."""
+        return N_DISTURBANCE_STATE if self.disturbance_density > 0 else N_STATE
 
     @property
     def gate_threshold(self) -> float:
@@ -151,7 +161,7 @@ class JointEstimates:
     time : (N,) s.
     joints : (N, 3) estimated joint positions (rad, rad, m) after each update; always finite.
     covariance : (N, 3, 3) their covariance.
-    states : (N, 12) full state ``[u, u', q, q']``.
+    states : (N, 12) full state ``[u, u', q, q']``; (N, 15) with the disturbance torques ``d`` after it.
     min_eigenvalue : (N,) smallest eigenvalue of the full state covariance after each step, or
         None when not requested.
     log_likelihood : sum of the innovation log-likelihoods (NaN unless requested).
@@ -209,13 +219,21 @@ class JointEstimates:
                 "reinitialised": int(self.n_reinitialised)}
 
 
-def initial_state(model: CableModel, motor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """State at rest at motor coordinates ``motor`` (joints sagging under gravity) and its covariance."""
+def initial_state(model: CableModel, motor: np.ndarray, n_state: int = N_STATE) -> tuple[np.ndarray, np.ndarray]:
+    """State at rest at motor coordinates ``motor`` (joints sagging under gravity) and its covariance.
+
+    With ``n_state`` 15 the disturbance torques start at zero with spread ``DISTURBANCE_SPREAD``.
+    """
     q = model.cable_ends(motor)
     for _ in range(10):  # fixed point: gravity changes slowly with q beside the cable stiffness
         q = model.static_joints(motor, gravity_torques_fast(np.ascontiguousarray(q), model.gravity_coefficients))
     x = np.concatenate([motor, np.zeros(3), q, np.zeros(3)])
     spread = np.concatenate([model.encoder_resolution, INITIAL_SPREAD])
+    if n_state == N_DISTURBANCE_STATE:
+        x = np.concatenate([x, np.zeros(3)])
+        spread = np.concatenate([spread, DISTURBANCE_SPREAD])
+    elif n_state != N_STATE:
+        raise ValueError(f"the filter has {N_STATE} or {N_DISTURBANCE_STATE} states, not {n_state}")
     return x, np.diag(spread ** 2)
 
 
@@ -226,14 +244,26 @@ def motor_readings(states: np.ndarray) -> np.ndarray:
 
 def _build_filter(model: CableModel, settings: UKFSettings, measurement: np.ndarray) -> BatchUnscentedKalmanFilter:
     process = ProcessModel(model, settings.max_step, settings.refresh)
-    points = sigma_points(N_STATE, settings.alpha, settings.beta, settings.kappa)
-    ukf = BatchUnscentedKalmanFilter(N_STATE, 3, points, process.batch, hx_batch=motor_readings)
+    points = sigma_points(settings.n_state, settings.alpha, settings.beta, settings.kappa)
+    ukf = BatchUnscentedKalmanFilter(settings.n_state, 3, points, process.batch, hx_batch=motor_readings)
     ukf.R = measurement
     return ukf
 
 
 def _restart(ukf: BatchUnscentedKalmanFilter, model: CableModel, motor: np.ndarray) -> None:
-    ukf.x, ukf.P = initial_state(model, motor)
+    ukf.x, ukf.P = initial_state(model, motor, ukf.x.size)
+
+
+def process_covariance(process_noise: ProcessNoise, settings: UKFSettings, dt: float) -> np.ndarray:
+    """Discrete process covariance over ``dt`` s: the white-acceleration block, and with the disturbance
+    states a random walk of density ``settings.disturbance_density`` (N m s^-0.5, N s^-0.5 for joint 3)."""
+    covariance = process_noise.covariance(dt)
+    if settings.n_state == N_STATE:
+        return covariance
+    full = np.zeros((N_DISTURBANCE_STATE, N_DISTURBANCE_STATE))
+    full[:N_STATE, :N_STATE] = covariance
+    full[N_STATE:, N_STATE:] = np.eye(3) * settings.disturbance_density ** 2 * dt
+    return full
 
 
 def check_log_rate(time: np.ndarray) -> float:
@@ -305,7 +335,7 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
     ukf = _build_filter(model, settings, measurement)
     _restart(ukf, model, z[first])
     held = torque[first] if valid_tau[first] else np.zeros(3)
-    states = np.empty((n, N_STATE))
+    states = np.empty((n, settings.n_state))
     joint_cov = np.empty((n, 3, 3))
     flags = np.full(n, COASTING, dtype=np.int8)
     distance2 = np.full(n, np.nan)
@@ -368,7 +398,7 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
         before = (ukf.x.copy(), ukf.P.copy())
         usable = bool(valid_z[k])
         scale = 1.0 if usable else settings.coast_noise_scale
-        ukf.Q = scale * process_noise.covariance(dt)
+        ukf.Q = scale * process_covariance(process_noise, settings, dt)
         ukf.predict(dt=dt, motor_torque=held)
         if not (np.all(np.isfinite(ukf.x)) and np.all(np.isfinite(ukf.P))):
             ukf.x, ukf.P = before       # keep the last good estimate until a reading re-initialises
