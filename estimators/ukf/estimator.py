@@ -46,6 +46,7 @@ from simulation.identification import (
     identify,
 )
 from simulation.identification.motor_log import MOTOR_POSITION_COLUMNS, MOTOR_TORQUE_COLUMNS
+from simulation.identification.nominal import nominal_parameters
 from simulation.model.parameters import RavenParameters
 from simulation.recordings.dataset import CalibrationDataset
 
@@ -64,8 +65,9 @@ class UKFJointEstimator(BaseEstimator):
     ----------
     effects : effects of the identified model (see :func:`simulation.identification.identify`).
     fixed : parameters held at ``base_parameters``' values during identification.
-    base_parameters : RavenParameters giving constants and initial guesses (default: the virtual
-        RAVEN-II of the log's arm).
+    base_parameters : RavenParameters giving constants, initial guesses and fixed values (default:
+        :func:`~simulation.identification.nominal.nominal_parameters` of the log's arm: the
+        controller's constants and round effect values, never the simulator's).
     identification_options : dict of further keyword arguments for ``identify``.
     process_noise : a :class:`~estimators.ukf.noise.ProcessNoise` to use as is (no tuning), or None.
     measurement_noise : (3,) standard deviation of the motor encoder readings (motor rad), or None
@@ -198,7 +200,7 @@ class UKFJointEstimator(BaseEstimator):
         log = as_motor_log(log)
         check_log_rate(log.time)
         settings = self._settings()
-        base = self.base_parameters if self.base_parameters is not None else RavenParameters(arm=log.arm)
+        base = self.base_parameters if self.base_parameters is not None else nominal_parameters(log.arm)
         options = dict(self.identification_options or {})
         options.setdefault("verbose", max(int(self.verbose) - 1, 0))
         started = time.perf_counter()
