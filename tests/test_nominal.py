@@ -65,6 +65,7 @@ def test_ukf_from_the_nominal_start_cuts_the_raw_error_of_an_unusual_robot():
     test = record_random_test(robot, 30.0, seed=22)
     estimator = UKFJointEstimator(tuning="none").fit(calibration)
     assert estimator.base_parameters is None          # the default base set: the nominal one
+    assert set(estimator.velocity_scale_scores_) == {0.3, 1.0, 3.0}
     log = MotorLog.from_recording(test)
     settled = slice(30, None)
     raw = np.sqrt(np.mean((test.channel("jpos")[:, :3] - log.joints)[settled] ** 2, axis=0))
