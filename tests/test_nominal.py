@@ -70,4 +70,4 @@ def test_ukf_from_the_nominal_start_cuts_the_raw_error_of_an_unusual_robot():
     settled = slice(30, None)
     raw = np.sqrt(np.mean((test.channel("jpos")[:, :3] - log.joints)[settled] ** 2, axis=0))
     ukf = np.sqrt(np.mean((estimator.predict(test).joints - log.joints)[settled] ** 2, axis=0))
-    assert np.all(ukf <= 0.3 * raw), (ukf, raw)
+    assert np.all(ukf <= 0.1 * raw), (ukf, raw)    # measured about 0.005 on two robot seeds
