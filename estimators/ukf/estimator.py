@@ -31,10 +31,11 @@ The estimator follows the project's calibrators where it can (hyper-parameters i
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 from scipy.optimize import minimize
-from sklearn.base import BaseEstimator
+from sklearn.base import BaseEstimator, clone
 from sklearn.utils.validation import check_is_fitted
 
 from simulation.identification import (
@@ -42,10 +43,12 @@ from simulation.identification import (
     FITTABLE_EFFECTS,
     IdentificationResult,
     MotorLog,
+    NotIdentifiableError,
     as_motor_log,
     identify,
 )
 from simulation.identification.motor_log import MOTOR_POSITION_COLUMNS, MOTOR_TORQUE_COLUMNS
+from simulation.identification.nominal import nominal_parameters
 from simulation.model.parameters import RavenParameters
 from simulation.recordings.dataset import CalibrationDataset
 
@@ -55,6 +58,12 @@ from estimators.ukf.process import MAX_STEP, REFRESH
 from estimators.ukf.run import JointEstimates, SampleLimits, UKFSettings, check_log_rate, run_filter
 
 TUNING_CRITERIA = ("likelihood", "joint_error", "none")
+VELOCITY_SCALE_FACTORS = (0.3, 1.0, 3.0)
+"""Factors of the nominal friction smoothing scale the fit chooses from (round values)."""
+HOLDOUT_FRACTION = 0.25
+"""Share of the calibration log, at its end, held out to choose the smoothing scale."""
+HOLDOUT_SETTLE = 30
+"""Samples at the start of the held-out part left out of its score (the filter settling)."""
 
 
 class UKFJointEstimator(BaseEstimator):
@@ -64,8 +73,10 @@ class UKFJointEstimator(BaseEstimator):
     ----------
     effects : effects of the identified model (see :func:`simulation.identification.identify`).
     fixed : parameters held at ``base_parameters``' values during identification.
-    base_parameters : RavenParameters giving constants and initial guesses (default: the virtual
-        RAVEN-II of the log's arm).
+    base_parameters : RavenParameters giving constants, initial guesses and fixed values (default:
+        :func:`~simulation.identification.nominal.nominal_parameters` of the log's arm: the
+        controller's constants and round effect values, never the simulator's), with its friction
+        smoothing scale chosen on held-out calibration data (see ``velocity_scale_factors``).
     identification_options : dict of further keyword arguments for ``identify``.
     process_noise : a :class:`~estimators.ukf.noise.ProcessNoise` to use as is (no tuning), or None.
     measurement_noise : (3,) standard deviation of the motor encoder readings (motor rad), or None
@@ -98,6 +109,10 @@ class UKFJointEstimator(BaseEstimator):
         torque per positioning joint at the link (states 12-14, N m, N m, N), a random walk of this
         density (N m s^-0.5; N s^-0.5 on the insertion axis). It absorbs an unknown payload's gravity
         and unmodelled friction. A round-number hyper-parameter, not tuned.
+    velocity_scale_factors : factors of the nominal friction smoothing scale tried when
+        ``base_parameters`` is None: each is identified and filtered on the first 75 % of the
+        calibration log and scored by joint error on the last 25 % (``velocity_scale_scores_``);
+        the best is used for the final fit on the whole log. None or one factor: the nominal scale.
     verbose : 0 prints nothing; 1 prints a line when the identification, the noise tuning and each
         filter run end (with their times), to stdout as scikit-learn does; 2 also prints each
         identification pass and every tuning run.
@@ -126,10 +141,12 @@ class UKFJointEstimator(BaseEstimator):
                  kappa: float = 0.0, max_step: float = MAX_STEP, refresh: int = REFRESH, max_gap: float = 1.0,
                  gate_probability: float = 0.9999, max_inflation: float = 10.0, max_rejections: int = 10,
                  coast_noise_scale: float = 1.0, covariance_calibration: bool = True,
-                 disturbance_density: float = 0.0, verbose: int = 0):
+                 disturbance_density: float = 0.0, velocity_scale_factors=VELOCITY_SCALE_FACTORS,
+                 verbose: int = 0):
         self.effects = effects
         self.fixed = fixed
         self.base_parameters = base_parameters
+        self.velocity_scale_factors = velocity_scale_factors
         self.identification_options = identification_options
         self.process_noise = process_noise
         self.measurement_noise = measurement_noise
@@ -207,13 +224,60 @@ class UKFJointEstimator(BaseEstimator):
         log = as_motor_log(log)
         check_log_rate(log.time)
         settings = self._settings()
-        base = self.base_parameters if self.base_parameters is not None else RavenParameters(arm=log.arm)
         options = dict(self.identification_options or {})
         options.setdefault("verbose", max(int(self.verbose) - 1, 0))
+        base = self.base_parameters
+        if base is None:
+            base = self._nominal_with_chosen_smoothing(log)
         started = time.perf_counter()
         result = identify(log, effects=self.effects, base=base, fixed=self.fixed, **options)
         self._say(1, f"UKF: cable model identified on {len(log)} samples in {time.perf_counter() - started:.1f} s")
         return self._finish_fit(result, log, settings)
+
+    def _nominal_with_chosen_smoothing(self, log: MotorLog) -> RavenParameters:
+        """The nominal set with the friction smoothing scale that predicts held-out joints best.
+
+        Each factor of ``velocity_scale_factors`` scales the nominal ``velocity_scale``; for each,
+        the model is identified and the filter run (no noise tuning) on the first
+        ``1 - HOLDOUT_FRACTION`` of the calibration log, and scored on the rest by the joint RMSE
+        relative to the nominal scale's, averaged over the three joints.
+        """
+        nominal = nominal_parameters(log.arm)
+        factors = tuple(float(f) for f in (self.velocity_scale_factors or ()))
+        if any(not np.isfinite(f) or f <= 0 for f in factors):
+            raise ValueError(f"velocity_scale_factors must be positive, got {self.velocity_scale_factors}")
+        if len(factors) < 2 or "coulomb_friction" not in self.effects:
+            return nominal
+        cut = int(round((1.0 - HOLDOUT_FRACTION) * len(log)))
+        part = lambda rows: MotorLog(time=log.time[rows], motor_positions=log.motor_positions[rows],
+                                     motor_torques=log.motor_torques[rows], joints=log.joints[rows],
+                                     payload_kg=None if log.payload_kg is None else log.payload_kg[rows],
+                                     arm=log.arm)
+        fit_part, held = part(slice(0, cut)), part(slice(cut, None))
+        settled = slice(min(HOLDOUT_SETTLE, len(held) // 2), None)
+        friction = nominal.effect("coulomb_friction")
+        candidates, errors = [], []
+        for factor in factors:
+            candidate = nominal.with_effect(friction.replace(velocity_scale=friction.velocity_scale * factor))
+            trial = clone(self).set_params(base_parameters=candidate, tuning="none", verbose=0)
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    estimates = trial.fit(fit_part).predict(held)
+                error = np.sqrt(np.mean((estimates.joints - held.joints)[settled] ** 2, axis=0))
+            except (NotIdentifiableError, ValueError, np.linalg.LinAlgError):
+                error = np.full(3, np.inf)
+            candidates.append(candidate)
+            errors.append(error)
+        errors = np.array(errors)
+        reference = errors[factors.index(1.0)] if 1.0 in factors else np.nanmin(errors, axis=0)
+        score = np.mean(errors / np.maximum(reference, 1e-12), axis=1)
+        score[~np.isfinite(score)] = np.inf
+        best = int(np.argmin(score))
+        self.velocity_scale_scores_ = dict(zip(factors, score.tolist()))
+        self._say(1, f"UKF: friction smoothing scale x{factors[best]:g} of nominal chosen on the last "
+                     f"{HOLDOUT_FRACTION:.0%} of the calibration log (scores {self.velocity_scale_scores_})")
+        return candidates[best]
 
     def _say(self, level: int, message: str) -> None:
         if int(self.verbose) >= level:

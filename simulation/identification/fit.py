@@ -37,6 +37,7 @@ from scipy.stats import norm
 from simulation.model.laws import cable_stretch_curve
 from simulation.model.constants import coupling_matrix
 from simulation.model.parameters import RavenParameters
+from simulation.identification.nominal import nominal_parameters
 from simulation.identification.layout import (
     COULOMB,
     COUPLING_DELTA,
@@ -338,7 +339,8 @@ def identify(log, *, effects=FITTABLE_EFFECTS, base: RavenParameters | None = No
     effects : the effects in the model (subset of :data:`FITTABLE_EFFECTS`); their parameters are
         estimated, every other effect is off in the returned parameter set.
     base : parameter set giving the constants, gravity vector, friction velocity scale, initial
-        guesses and fixed values (default: the virtual RAVEN-II, ``RavenParameters()``).
+        guesses and fixed values (default: :func:`~.nominal.nominal_parameters`, the controller's
+        constants and round effect values; never the simulator's own).
     fixed : parameters held at ``base``'s values, by name or field (default: the cable damping,
         see :data:`~.layout.DEFAULT_FIXED`).
     confidence : level of the reported confidence intervals.
@@ -375,7 +377,7 @@ def identify(log, *, effects=FITTABLE_EFFECTS, base: RavenParameters | None = No
     effects = tuple(effects)
     if base is None:
         arm = getattr(log, "arm", "left")
-        base = RavenParameters(arm=arm)
+        base = nominal_parameters(arm)
     samples = log if isinstance(log, IdentificationSamples) else prepare_samples(log, base, derivative_window)
     velocity_scale = base.effect("coulomb_friction").velocity_scale
     if min_speed is None:

@@ -59,7 +59,8 @@ STIFFNESS, HARDENING, DAMPING, COULOMB, VISCOUS, LOAD_SCALE, COUPLING_DELTA, OFF
 DEFAULT_FIXED = ("cable_stretch.damping",)
 """Held at the base values unless asked otherwise: the cable damping multiplies the stretch rate,
 a small difference of two differentiated encoder signals, so encoder noise biases it low (errors
-in variables; a free fit on the virtual RAVEN-II returns 0.27 for the elbow's 0.4 N m s/rad)."""
+in variables; a free fit on the virtual RAVEN-II returns 0.27 for the elbow's 0.4 N m s/rad). With
+the default base set it is held at the round nominal of :mod:`~.nominal`, not at a simulator value."""
 LOG_RANGE = 12.0
 """Positive scale parameters are searched within exp(+-LOG_RANGE) of their reference."""
 
