@@ -42,6 +42,7 @@ GOAL_US = {"DNN 16-100-100-3 (sigmoid)": 1.0}
 FLAG_SETS = {
     "-O2": ["-O2"],
     "-O2 -march=x86-64-v3": ["-O2", "-march=x86-64-v3"],  # AVX2 + FMA, any x86-64 since 2015
+    "-O3 -march=x86-64-v3": ["-O3", "-march=x86-64-v3"],
     "-O3 -march=native": ["-O3", "-march=native"],
     "-O3 -march=native -ffast-math": ["-O3", "-march=native", "-ffast-math"],
 }

@@ -138,31 +138,25 @@ def _array(name, values, ctype="double") -> str:
 def _affine_layer(source, weight, bias, target, n_in, n_out, indent="    ") -> str:
     """C statements ``target = bias + source @ weight`` (weight row-major (n_in, n_out)).
 
-    The loop over inputs is outermost, four inputs at a time, so the inner loop is an
-    independent multiply-add per output that compilers vectorize without reordering any sum
-    (no -ffast-math needed), loading and storing the outputs once per four inputs.
+    The loop over inputs is outermost, _BLOCK inputs at a time, so the inner loop is an
+    independent multiply-add per output over contiguous weight rows, which compilers vectorize
+    without reordering any sum (no -ffast-math needed), loading and storing the outputs once
+    per block of inputs.
     """
-    text = (f"{indent}for (j = 0; j < {n_out}; ++j) {target}[j] = {bias}[j];\n")
-    blocked = n_in - n_in % 4
-    if blocked:
-        text += (
-            f"{indent}for (i = 0; i < {blocked}; i += 4) {{\n"
-            f"{indent}    const double s0 = {source}[i], s1 = {source}[i + 1], "
-            f"s2 = {source}[i + 2], s3 = {source}[i + 3];\n"
-            f"{indent}    const double *w0 = {weight} + i * {n_out}, *w1 = w0 + {n_out}, "
-            f"*w2 = w1 + {n_out}, *w3 = w2 + {n_out};\n"
-            f"{indent}    for (j = 0; j < {n_out}; ++j)\n"
-            f"{indent}        {target}[j] = {target}[j] + s0 * w0[j] + s1 * w1[j] + s2 * w2[j]"
-            f" + s3 * w3[j];\n"
-            f"{indent}}}\n")
-    if blocked < n_in:
-        text += (
-            f"{indent}for (i = {blocked}; i < {n_in}; ++i) {{\n"
-            f"{indent}    const double s0 = {source}[i];\n"
-            f"{indent}    const double *w0 = {weight} + i * {n_out};\n"
-            f"{indent}    for (j = 0; j < {n_out}; ++j) {target}[j] += s0 * w0[j];\n"
-            f"{indent}}}\n")
+    text = f"{indent}for (j = 0; j < {n_out}; ++j) {target}[j] = {bias}[j];\n"
+    i = 0
+    for block in _BLOCKS:
+        while n_in - i >= block:
+            scalars = ", ".join(f"s{k} = {source}[{i + k}]" for k in range(block))
+            terms = " + ".join(f"s{k} * {weight}[{(i + k) * n_out} + j]" for k in range(block))
+            text += (f"{indent}{{\n{indent}    const double {scalars};\n"
+                     f"{indent}    for (j = 0; j < {n_out}; ++j)\n"
+                     f"{indent}        {target}[j] = {target}[j] + {terms};\n{indent}}}\n")
+            i += block
     return text
+
+
+_BLOCKS = (8, 4, 2, 1)
 
 
 # tanh without libm, so that the loop over a layer's units vectorizes at -O2 already (glibc's
@@ -199,7 +193,7 @@ def _copy_out(n_targets, raw_index) -> str:
 
 def _affine(name, weight, bias, n_features, n_targets):
     arrays = [_array(f"{name}_weight", weight), _array(f"{name}_bias", bias)]
-    body = (f"    double out[{n_targets}];\n    int i, j;\n"
+    body = (f"    double out[{n_targets}];\n    int j;\n"
             + _affine_layer("x", f"{name}_weight", f"{name}_bias", "out", n_features, n_targets)
             + _copy_out(n_targets, None))
     return arrays, body
@@ -224,7 +218,7 @@ def _network(name, predictor, n_features, n_targets):
             statements.append(f"    for (j = 0; j < {n_out}; ++j) {target}[j] = {target}[j] < 0.0"
                               f" ? 0.0 : {target}[j];\n")  # NaN stays NaN
         source, n_in = target, n_out
-    body = ("".join(declarations) + "    int i, j;\n" + "".join(statements)
+    body = ("".join(declarations) + "    int j;\n" + "".join(statements)
             + _copy_out(n_targets, predictor.raw_index))
     return arrays, body
 
