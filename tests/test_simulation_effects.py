@@ -201,7 +201,7 @@ def test_quantization_matches_the_stated_resolutions():
 
 def drift_run(kind: str, blocks: int = 4):
     params = RavenParameters().only("cable_stretch", "gravity_stretch", "drift").with_effect(
-        Drift(time_scale=3600.0 * 0.25))
+        Drift(creep_rate=[2.5e-3, 1e-3, 1e-5], time_scale=3600.0 * 0.25))
     robot = homed(params, payload_kg=0.5 if kind == "loaded" else 0.0)
     calibration = robot.run(sweep(1, np.deg2rad(25), 4.0, 2.0))
     offset = errors(calibration).mean(axis=0)

@@ -12,6 +12,7 @@ from simulation.model.effects import (
     EFFECT_NAMES, CapstanFriction, CoulombFriction, GravityModelError, MotorFriction, RegistrationOffset,
     TransmissionError,
 )
+from simulation.model.mismatch import FILTER_CLASS, out_of_class_effects
 from simulation.model.parameters import RavenParameters
 from simulated_motion import POSE, sweep
 
@@ -39,12 +40,14 @@ def held_error(robot, pose, joint: int) -> tuple[float, float]:
     return float(joint_error(rec, joint).mean()), float(rec.channel("true_joints")[:, joint].mean())
 
 
-def test_new_effects_are_off_by_default_and_appended_after_the_old_ones():
+def test_new_effects_are_on_by_default_outside_the_filter_class_and_appended_after_the_old_ones():
     params = RavenParameters()
     assert EFFECT_NAMES[-5:] == NEW_EFFECTS
     for name in NEW_EFFECTS:
-        assert not params.is_enabled(name)
-        assert not type(params.effect(name))().enabled
+        assert params.is_enabled(name)
+        assert type(params.effect(name))().enabled
+    assert set(NEW_EFFECTS) <= set(out_of_class_effects(params))
+    assert not set(NEW_EFFECTS) & set(FILTER_CLASS)
 
 
 def test_new_effects_round_trip_through_a_dictionary_and_json():

@@ -30,6 +30,7 @@ The estimator follows the project's calibrators where it can (hyper-parameters i
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 
@@ -64,6 +65,12 @@ HOLDOUT_FRACTION = 0.25
 """Share of the calibration log, at its end, held out to choose the smoothing scale."""
 HOLDOUT_SETTLE = 30
 """Samples at the start of the held-out part left out of its score (the filter settling)."""
+COAST_SCALES = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0)
+"""Factors on the process covariance while coasting that ``coast_noise_scale="auto"`` tries."""
+COAST_COVERAGE = 0.99
+"""Share of the coasted joint errors that must lie within 3 reported standard deviations."""
+COAST_SPACING = 2.5
+"""Seconds between the starts of the blanked stretches the coasting calibration uses."""
 
 
 class UKFJointEstimator(BaseEstimator):
@@ -103,8 +110,13 @@ class UKFJointEstimator(BaseEstimator):
         joints are seen only through the cable model, whose friction and stretch it takes as exact
         (on its own model class the shoulder and elbow errors are 12-17x its standard deviation). The
         estimates are unchanged; without ground truth the scale is 1.
-    coast_noise_scale : factor on the process covariance over steps without a usable reading (1:
-        the tuned noise; larger widens the reported spread while coasting).
+    coast_noise_scale : factor on the process covariance over steps without a usable reading, or
+        ``"auto"`` (default): chosen at fit time on the tuning window, which has ground truth, as
+        the smallest of :data:`COAST_SCALES` for which 99 % of the joint errors over blanked
+        stretches of 0.9 ``max_gap`` seconds (one every 2.5 s) lie within 3 reported standard deviations
+        (``coast_noise_scale_``). The tuned noise is right while readings correct the model every
+        step; while coasting the model runs open loop on the logged torques and its error grows
+        faster than that noise says. Without ground truth, "auto" keeps 1.
     disturbance_density : 0 (default) runs the 12-state filter; a positive value adds a disturbance
         torque per positioning joint at the link (states 12-14, N m, N m, N), a random walk of this
         density (N m s^-0.5; N s^-0.5 on the insertion axis). It absorbs an unknown payload's gravity
@@ -129,6 +141,7 @@ class UKFJointEstimator(BaseEstimator):
     process_noise_ : ProcessNoise in use.
     measurement_noise_ : (3, 3) measurement covariance (motor coordinates).
     covariance_scale_ : (3,) factor on the reported joint variances (see ``covariance_calibration``).
+    coast_noise_scale_ : factor on the process covariance while coasting (see ``coast_noise_scale``).
     limits_ : SampleLimits bounding readings and torques (the arm's RE40 motors and DAC clip).
     arm_ : the arm of the calibration log; logs of the other arm are refused.
     tuning_history_ : list of (log10 densities, objective) of every tuning run.
@@ -140,7 +153,7 @@ class UKFJointEstimator(BaseEstimator):
                  tuning_evaluations: int = 40, payload_kg: float = 0.0, alpha: float = 1.0, beta: float = 2.0,
                  kappa: float = 0.0, max_step: float = MAX_STEP, refresh: int = REFRESH, max_gap: float = 1.0,
                  gate_probability: float = 0.9999, max_inflation: float = 10.0, max_rejections: int = 10,
-                 coast_noise_scale: float = 1.0, covariance_calibration: bool = True,
+                 coast_noise_scale: float | str = "auto", covariance_calibration: bool = True,
                  disturbance_density: float = 0.0, velocity_scale_factors=VELOCITY_SCALE_FACTORS,
                  verbose: int = 0):
         self.effects = effects
@@ -183,15 +196,20 @@ class UKFJointEstimator(BaseEstimator):
             raise ValueError(f"max_inflation must be a finite number >= 1, got {self.max_inflation!r}")
         if int(self.max_rejections) < 1:
             raise ValueError(f"max_rejections must be >= 1, got {self.max_rejections!r}")
-        if not (np.isfinite(self.coast_noise_scale) and self.coast_noise_scale >= 1.0):
-            raise ValueError(f"coast_noise_scale must be a finite number >= 1, got {self.coast_noise_scale!r}")
+        coast = self.coast_noise_scale
+        if isinstance(coast, str):
+            if coast != "auto":
+                raise ValueError(f"coast_noise_scale must be a finite number >= 1 or 'auto', got {coast!r}")
+            coast = getattr(self, "coast_noise_scale_", 1.0)
+        elif not (isinstance(coast, (int, float, np.integer, np.floating)) and np.isfinite(coast) and coast >= 1.0):
+            raise ValueError(f"coast_noise_scale must be a finite number >= 1 or 'auto', got {coast!r}")
         if not (np.isfinite(self.disturbance_density) and self.disturbance_density >= 0.0):
             raise ValueError(f"disturbance_density must be a finite number >= 0, got {self.disturbance_density!r}")
         return UKFSettings(alpha=float(self.alpha), beta=float(self.beta), kappa=float(self.kappa),
                            max_step=float(self.max_step), refresh=int(self.refresh), max_gap=float(self.max_gap),
                            gate_probability=float(self.gate_probability),
                            max_inflation=float(self.max_inflation), max_rejections=int(self.max_rejections),
-                           coast_noise_scale=float(self.coast_noise_scale),
+                           coast_noise_scale=float(coast),
                            disturbance_density=float(self.disturbance_density))
 
     def _measurement_covariance(self, model: CableModel) -> np.ndarray:
@@ -322,6 +340,11 @@ class UKFJointEstimator(BaseEstimator):
         self.covariance_scale_ = np.ones(3)
         if self.covariance_calibration and log is not None and log.has_truth:
             self.covariance_scale_ = self._covariance_scale(log, settings)
+        self.coast_noise_scale_ = settings.coast_noise_scale
+        if self.coast_noise_scale == "auto":
+            self.coast_noise_scale_ = 1.0
+            if log is not None and log.has_truth:
+                self.coast_noise_scale_ = self._coast_scale(log, settings)
         return self
 
     def _tune(self, start: ProcessNoise, model: CableModel, measurement: np.ndarray, log: MotorLog,
@@ -371,6 +394,28 @@ class UKFJointEstimator(BaseEstimator):
         ratio = (estimates.joints - window.joints)[settled] ** 2 / variance
         scale = np.mean(ratio, axis=0) if ratio.shape[0] else np.ones(3)
         return np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+
+    def _coast_scale(self, log: MotorLog, settings: UKFSettings) -> float:
+        """Smallest of :data:`COAST_SCALES` whose coasting spread covers the coasted joint errors."""
+        window = log.between(log.time[0], log.time[0] + float(self.tuning_seconds))
+        t = window.time - window.time[0]
+        starts = np.arange(2.0, t[-1] - settings.max_gap - 1.0, COAST_SPACING)
+        if len(window) < 10 or starts.size == 0:
+            return 1.0
+        blank = np.zeros(len(window), dtype=bool)
+        for start in starts:
+            # strictly shorter than max_gap, so the filter coasts and never re-initialises
+            blank |= (t >= start) & (t < start + 0.9 * settings.max_gap)
+        for scale in COAST_SCALES:
+            trial = dataclasses.replace(settings, coast_noise_scale=scale)
+            estimates = run_filter(window, self.model_, self.process_noise_, self.measurement_noise_, trial,
+                                   valid=~blank, limits=self.limits_, covariance_scale=self.covariance_scale_,
+                                   warn=False)
+            spread = np.sqrt(np.einsum("nii->ni", estimates.covariance))[blank]
+            error = np.abs(estimates.joints - window.joints)[blank]
+            if np.all(np.mean(error <= 3.0 * spread, axis=0) >= COAST_COVERAGE):
+                return scale
+        return COAST_SCALES[-1]
 
     # ---- filtering -----------------------------------------------------------------------
 
