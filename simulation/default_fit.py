@@ -223,6 +223,17 @@ def fit_drift(params: RavenParameters, seed: int = 0, iterations: int = 3, toler
     return params, run
 
 
+TARGET_TOLERANCE = 0.10
+"""A fit target is met when the simulated value is within 10 % of the published one."""
+
+
+def target_summary(name: str, ratio: np.ndarray) -> str:
+    """One line: a fit target's achieved/published ratio per joint and whether each is within 10 %."""
+    verdicts = ["met" if abs(r - 1.0) <= TARGET_TOLERANCE else "MISSED" for r in ratio]
+    return (f"  target {name}: achieved/published = " + ", ".join(f"J{j + 1} {r:.3f} ({v})"
+                                                                  for j, (r, v) in enumerate(zip(ratio, verdicts))))
+
+
 def check_output_path(path: str | os.PathLike) -> Path:
     """``path`` as a Path if a parameter file can be written there, else a one-line ValueError.
 
@@ -279,6 +290,9 @@ def main(argv=None) -> None:
                   f" {run.hourly_linear[0, j] * REPORT_SCALE[j]:11.3f}"
                   f" {PUBLISHED_LINEAR_HOUR5[j] * REPORT_SCALE[j]:13.3f}"
                   f" {run.hourly_linear[5, j] * REPORT_SCALE[j]:11.3f}")
+        print(target_summary("hour-5 linear", run.hourly_linear[5] / PUBLISHED_LINEAR_HOUR5))
+    print(target_summary("raw", errors.raw / PUBLISHED_RAW))
+    print(target_summary("fixed offset", errors.fixed_offset / PUBLISHED_FIXED_OFFSET))
     if args.out is not None:
         print(f"Wrote the fitted parameters to {write_fit(params, args.out)}")
 
