@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from simulation.model.mismatch import out_of_class_effects
+from simulation.model.parameters import RavenParameters
 from simulation.trajectories import PAPER_SPARSITIES
 from studies.common import paper_numbers as paper
 from studies.common import plots, reporting
@@ -269,6 +271,22 @@ def results_document(comparison: Comparison, config: CompareConfig, *, started: 
     return reporting.to_jsonable(document)
 
 
+def model_mismatch_note(params: RavenParameters) -> dict:
+    """Where the simulated robot lies on the model-mismatch axis of ``studies/model_mismatch.py``.
+
+    The simulated robot is ``lam = 1`` by definition (:func:`simulation.model.mismatch.scale_out_of_class`
+    scales its effects outside the UKF's class); this names those effects, so a reader can place the
+    comparison on the study's curves.
+    """
+    outside = list(out_of_class_effects(params))
+    if outside:
+        sentence = ("model mismatch: this robot is lam = 1 of studies/model_mismatch.py; effects outside the "
+                    f"UKF's class switched on: {', '.join(outside)}")
+    else:
+        sentence = "model mismatch: this robot is of the UKF's model class (lam = 0 of studies/model_mismatch.py)"
+    return {"lam": 1.0 if outside else 0.0, "out_of_class_effects": outside, "sentence": sentence}
+
+
 def finding(document: dict) -> str:
     """One line: does the first test show the ordering the paper found?"""
     first = document["tests"][0]
@@ -429,6 +447,9 @@ def main(argv: list[str] | None = None) -> dict:
                        "jobs": args.jobs, "backend": args.backend}
         document = results_document(comparison, config, started=study.started, runtime_s=study.stop_clock(),
                                     command=reporting.command_line(), run_options=run_options)
+        if args.data is None:
+            document["model_mismatch"] = model_mismatch_note(args.robot_params or RavenParameters())
+            say(document["model_mismatch"]["sentence"])
         write_outputs(comparison, document, study.folder)
         study.publish()
         print(summary_table(document))

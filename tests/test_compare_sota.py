@@ -224,3 +224,14 @@ def test_interval_is_the_student_t_interval_of_the_seed_means():
         expected = stats.t.interval(0.95, len(values) - 1, loc=values.mean(), scale=stats.sem(values))
         np.testing.assert_allclose([low, high], expected, rtol=1e-12)
     assert compare_sota.interval95([[0.1, 0.2, 0.3]]) == [[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]
+
+
+def test_the_report_places_the_robot_on_the_model_mismatch_axis():
+    from simulation.model.parameters import RavenParameters
+
+    note = compare_sota.model_mismatch_note(RavenParameters())
+    assert note["lam"] == 1.0
+    assert {"motor_friction", "capstan_friction", "hysteresis"} <= set(note["out_of_class_effects"])
+    assert not {"cable_stretch", "coupling", "coulomb_friction"} & set(note["out_of_class_effects"])
+    own_class = compare_sota.model_mismatch_note(RavenParameters().only("cable_stretch", "coupling", "noise"))
+    assert own_class["lam"] == 0.0 and own_class["out_of_class_effects"] == []
