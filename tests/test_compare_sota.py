@@ -12,7 +12,7 @@ import pytest
 from kinematics import RavenII
 from simulation.recordings.dvrk import locate_dvrk_data
 from studies import compare_sota
-from studies.common.data_sources import recorded_comparison, simulated_comparison
+from studies.common.data_sources import LOADED_CALIBRATION_TEST, recorded_comparison, simulated_comparison
 from studies.common.methods import BASE_METHODS, MethodSettings
 
 REDUCED = MethodSettings(dnn_seeds=1, dnn_epochs=60, lstm_epochs=2, forest_trees=5, two_phase_max_samples=800,
@@ -224,3 +224,70 @@ def test_interval_is_the_student_t_interval_of_the_seed_means():
         expected = stats.t.interval(0.95, len(values) - 1, loc=values.mean(), scale=stats.sem(values))
         np.testing.assert_allclose([low, high], expected, rtol=1e-12)
     assert compare_sota.interval95([[0.1, 0.2, 0.3]]) == [[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]
+
+
+def test_filter_event_counts_sit_beside_the_ukf_rows(document):
+    for test in document["tests"]:
+        events = document[test]["ukf_events"]
+        ran = [key for key in ("ukf",) if document["methods"][key]["status"] == "ok"]
+        assert set(events) == set(ran)
+        for counts in events.values():
+            assert set(counts) == {"rejected", "coasted", "reinitialised"}
+            assert all(isinstance(n, int) and n >= 0 for n in counts.values())
+    summary = compare_sota.summary_table(document)
+    ukf_row = next(line for line in summary.splitlines() if line.startswith("UKF "))
+    assert ("events" in ukf_row) == bool(document["unloaded"]["ukf_events"])
+    assert not any("events" in line for line in summary.splitlines() if line.startswith("Linear regression"))
+
+
+LOAD_METHODS = ("raw", "fixed_offset", "linear")
+
+
+@pytest.fixture(scope="module")
+def loaded_reading():
+    data = simulated_comparison(seed=5, sparsities=(1 / 3,), test_duration=60.0, loaded_calibration=True)
+    config = compare_sota.CompareConfig(seed=5, sparsities=(1 / 3,), test_duration=60.0, methods=LOAD_METHODS,
+                                        settings=REDUCED)
+    result = compare_sota.compare(data, config, n_jobs=1, backend="sequential", progress=False)
+    document = compare_sota.results_document(result, config, started="now", runtime_s=1.0, command="test",
+                                             run_options={"quick": False})
+    return data, result, document
+
+
+def test_loaded_test_is_read_after_both_calibrations(loaded_reading):
+    data, _, document = loaded_reading
+    assert document["tests"] == ["unloaded", "loaded", LOADED_CALIBRATION_TEST]
+    both = data.training_for(LOADED_CALIBRATION_TEST)
+    assert len(both.recordings()) == 2 and data.training_for("loaded") is data.train
+    np.testing.assert_array_equal(np.unique(both.labels["payload_kg"]), [0.0, 0.5])
+    np.testing.assert_array_equal(both.X[:len(data.train)], data.train.X)
+    reading = document[LOADED_CALIBRATION_TEST]
+    for key in LOAD_METHODS:
+        assert len(reading["joint_rmse"][key]) == 3 and all(np.isfinite(reading["joint_rmse"][key]))
+        assert len(reading["joint_rmse_ci95"][key]) == 3
+    # the same loaded recording: the uncorrected encoders score the same in both readings
+    assert reading["joint_rmse"]["raw"] == document["loaded"]["joint_rmse"]["raw"]
+    assert LOADED_CALIBRATION_TEST in compare_sota.summary_table(document)
+
+
+def test_an_offset_calibrated_with_the_load_is_the_mean_error_of_both_recordings(loaded_reading):
+    data, result, document = loaded_reading
+    both, test = data.training_for(LOADED_CALIBRATION_TEST), data.tests["loaded"]
+    offset = np.mean(both.targets - both.raw_joints, axis=0)
+    expected = np.sqrt(np.mean((test.raw_joints + offset - test.targets) ** 2, axis=0)) * [180 / np.pi, 180 / np.pi, 1e3]
+    np.testing.assert_allclose(document[LOADED_CALIBRATION_TEST]["joint_rmse"]["fixed_offset"], expected, rtol=1e-5)
+    # the payload stretches the insertion cable: an offset that saw loaded motion is closer on joint 3
+    assert document[LOADED_CALIBRATION_TEST]["joint_rmse"]["fixed_offset"][2] < \
+        document["loaded"]["joint_rmse"]["fixed_offset"][2]
+
+
+def test_a_subsampled_window_model_sees_every_calibration_recording(loaded_reading):
+    from studies.common.methods import CalibratorOnSamples
+    from estimators import WindowLinearCalibrator
+
+    data, _, _ = loaded_reading
+    both = data.training_for(LOADED_CALIBRATION_TEST)
+    model = CalibratorOnSamples(WindowLinearCalibrator(window=3), temporal=True, max_train_samples=400)
+    rows = model._training_rows(both)
+    assert len(rows) == 400 and rows.stride == 1
+    assert [block.size for block in rows.recordings()] == [200, 200]
