@@ -13,7 +13,8 @@ joints taken as exact as in the paper. Tables shaped like the paper's Tables III
 published rows beside the simulated ones.
 
 ``--data PATH`` runs the same comparison on recorded data (ROS bag folder, dataset file or the
-dVRK folder format); ``--quick`` gives a first look in about 90 s on 2 cores. The terminal shows
+dVRK folder format); ``--quick`` gives a first look in about 2 minutes on 2 cores (most of it the
+three UKFs identifying their model on the calibration that includes the load). The terminal shows
 a summary (RMSE per method and joint, for each test); ``report.md`` in ``--out`` holds the full
 tables beside the paper's.
 """
@@ -190,6 +191,44 @@ def filter_events(comparison: Comparison, test: str) -> dict:
     return events
 
 
+TORQUE_COLUMNS = ("tau.shoulder", "tau.elbow", "tau.z_ins")
+"""The logged motor torques of joints 1-3 (ravenstate ``tau``: the controller's command, N m at the
+capstan after the gearbox, for the insertion joint too)."""
+
+
+def torque_summary(data: ComparisonData) -> dict | None:
+    """Mean and standard deviation of the logged torque of joints 1-3 in each calibration recording
+    and test, ``{name: {"mean": [3], "std": [3], "samples": n}}`` (N m); None without torques.
+
+    The calibration recordings are those of the largest training set (with the loaded reading:
+    the zig-zags unloaded, then with the load); a test shared by two readings appears once.
+    """
+    names = data.train.feature_names
+    if not all(column in names for column in TORQUE_COLUMNS):
+        return None
+    columns = [names.index(column) for column in TORQUE_COLUMNS]
+
+    def one(samples, rows=None) -> dict:
+        tau = samples.X[:, columns] if rows is None else samples.X[rows][:, columns]
+        return {"mean": _rounded(tau.mean(axis=0)), "std": _rounded(tau.std(axis=0)), "samples": int(tau.shape[0])}
+
+    summary = {}
+    training = max([data.train, *data.trainings.values()], key=len)
+    for k, rows in enumerate(training.recordings()):
+        name = f"calibration recording {k + 1}"
+        payload = training.labels.get("payload_kg")
+        if payload is not None:
+            name += f" ({float(np.mean(payload[rows])) * 1e3:.0f} g at the tool tip)"
+        summary[name] = one(training, rows)
+    seen = []
+    for test, samples in data.tests.items():
+        if any(samples is other for other in seen):
+            continue
+        seen.append(samples)
+        summary[f"{test} test"] = one(samples)
+    return summary
+
+
 def ordering_holds(joint_rmse: dict) -> dict:
     """The paper's ordering, joint by joint: linear and DNN below fixed offset, fixed offset below raw.
 
@@ -299,6 +338,7 @@ def results_document(comparison: Comparison, config: CompareConfig, *, started: 
         document[test] = test_results(comparison, test)
         document[test]["paper_ordering"] = ordering_holds(document[test]["joint_rmse"])
         document[test]["ukf_events"] = filter_events(comparison, test)
+    document["logged_torque"] = torque_summary(comparison.data)
     document["published"] = published_rows()
     return reporting.to_jsonable(document)
 
@@ -367,6 +407,14 @@ def report_markdown(comparison: Comparison, document: dict, figures: list[Path],
                   reporting.markdown_table(*joint_table(comparison, test)), "",
                   f"## {test} test: tool tip, last joints exact (Table IV)", "",
                   reporting.markdown_table(*cartesian_table(comparison, test)), ""]
+    torque = document.get("logged_torque")
+    if torque:
+        parts += ["## The logged motor torque", "",
+                  "ravenstate `tau` of joints 1-3 (the controller's command, N m at the capstan after the gearbox): "
+                  "mean and standard deviation over each recording.", "",
+                  reporting.markdown_table(["Recording", "J1 mean", "J2 mean", "J3 mean", "J1 std", "J2 std", "J3 std"],
+                                           [[name, *values["mean"], *values["std"]] for name, values in torque.items()],
+                                           digits=4), ""]
     events = events_table(document)
     if events is not None:
         parts += ["## What the filters rejected", "",
@@ -394,9 +442,9 @@ def report_markdown(comparison: Comparison, document: dict, figures: list[Path],
                   "nothing of the physics. The 'loaded' test shows what no method saw in training; the "
                   f"'{LOADED_CALIBRATION_TEST}' test is the same recording, read by the methods trained on "
                   "zig-zags recorded unloaded and again with the load. The controller is not told of the load: "
-                  "its position loop takes it up, so the logged motor torque (the commanded torque, as "
-                  "ravenstate logs it) carries the load's holding torque, and only a calibration that saw "
-                  "loaded torques can map them to cable stretch.", ""]
+                  "its position loop takes it up, so the logged motor torque (ravenstate `tau`, the controller's "
+                  "command) carries the load's holding torque; the table of the logged torque shows that shift "
+                  "beside the spread the motion gives the torque within each recording.", ""]
     parts += ["## Figures", "", reporting.figure_links(figures, out), ""]
     return "\n".join(parts)
 

@@ -291,3 +291,22 @@ def test_a_subsampled_window_model_sees_every_calibration_recording(loaded_readi
     rows = model._training_rows(both)
     assert len(rows) == 400 and rows.stride == 1
     assert [block.size for block in rows.recordings()] == [200, 200]
+
+
+def test_the_logged_insertion_torque_carries_the_payloads_holding_force(loaded_reading):
+    from simulation.model.parameters import RavenParameters
+    from studies.common.evaluation import raven_model
+
+    data, _, document = loaded_reading
+    torque = document["logged_torque"]
+    unloaded, loaded = (torque[name]["mean"][2] for name in torque if name.startswith("calibration recording"))
+    assert {"unloaded test", "loaded test"} <= set(torque) and f"{LOADED_CALIBRATION_TEST} test" not in torque
+    # the controller is not told of the load: its position loop takes up the payload's pull along
+    # the insertion axis, seen at the capstan through the controller's transmission
+    robot, constants = raven_model("left"), RavenParameters().constants
+    both = data.training_for(LOADED_CALIBRATION_TEST)
+    q = both.targets[both.recording == 1][::20]
+    pull = np.mean([robot.gravity_torques(np.r_[row, 0.0, 0.0, 0.0], payload_kg=0.5)[2]
+                    - robot.gravity_torques(np.r_[row, 0.0, 0.0, 0.0], payload_kg=0.0)[2] for row in q])
+    expected = pull / constants.transmission_ratio[2] * constants.gearbox[2]
+    assert loaded - unloaded == pytest.approx(expected, rel=0.25)

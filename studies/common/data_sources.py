@@ -2,9 +2,9 @@
 
 * :func:`simulated_comparison` runs the paper's protocol on the virtual RAVEN-II
   (:func:`simulation.paper_protocol`): J2-J3 zig-zag calibration at the paper's sparsities, then
-  independent 20-minute random tests, unloaded and with 500 g at the tool tip; the loaded test is
-  read twice, after a calibration without the load and after one whose zig-zags were also
-  recorded with the load (:data:`LOADED_CALIBRATION_TEST`).
+  independent 20-minute random tests, unloaded and with 500 g at the tool tip; with
+  ``loaded_calibration`` the loaded test is read a second time, after a calibration whose zig-zags
+  were also recorded with the load (:data:`LOADED_CALIBRATION_TEST`).
 * :func:`recorded_comparison` reads one's own robot data: a folder of ROS bags, a dataset file
   (``.parquet`` written by ``CalibrationDataset.to_parquet``, or its ``.csv``), a single bag, or
   the dVRK recordings of Hwang et al. (folder with ``q_des.npy``/``q_act.npy``/``t_stamp.npy``,
