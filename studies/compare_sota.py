@@ -2,7 +2,9 @@
 
 ``python studies/compare_sota.py`` runs the paper's protocol on the virtual RAVEN-II (J2-J3
 zig-zag calibration at sparsities 1/6, 1/4, 1/3; independent 20-minute random tests, unloaded and
-with 500 g at the tool tip), trains every method on the calibration data (raw encoders, fixed
+with 500 g at the tool tip; the loaded test read twice, after the calibration without the load and
+after one whose zig-zags were recorded once unloaded and once with the load, test
+``loaded_load_in_calibration``), trains every method on the calibration data (raw encoders, fixed
 offset, linear and 2nd-order polynomial regression, the paper's DNN averaged over 5 seeds, the
 UKF of Haghighipanah et al., and the re-implemented peers: Gaussian process after Mahler et al.,
 two-phase DNN + forest after Seita et al., window linear and LSTM after Hwang et al.), and
@@ -11,7 +13,8 @@ joints taken as exact as in the paper. Tables shaped like the paper's Tables III
 published rows beside the simulated ones.
 
 ``--data PATH`` runs the same comparison on recorded data (ROS bag folder, dataset file or the
-dVRK folder format); ``--quick`` gives a first look in about 90 s on 2 cores. The terminal shows
+dVRK folder format); ``--quick`` gives a first look in about 2 minutes on 2 cores (most of it the
+three UKFs identifying their model on the calibration that includes the load). The terminal shows
 a summary (RMSE per method and joint, for each test); ``report.md`` in ``--out`` holds the full
 tables beside the paper's.
 """
@@ -31,6 +34,7 @@ from studies.common import paper_numbers as paper
 from studies.common import plots, reporting
 from studies.common.data_sources import (
     DEFAULT_TEST_FRACTION,
+    LOADED_CALIBRATION_TEST,
     ComparisonData,
     recorded_comparison,
     simulated_comparison,
@@ -47,7 +51,7 @@ from studies.common.runner import (
     say,
     study_parser,
 )
-from studies.common.training import MethodRun, run_methods
+from studies.common.training import MethodRun, run_method_groups
 
 STUDY = "compare_sota"
 
@@ -62,6 +66,8 @@ class CompareConfig:
     direction, sparsities : the calibration zig-zags (simulator only).
     test_duration : s of each random test motion (simulator only).
     payload_kg : load hung at the tool tip for the loaded test (simulator only).
+    loaded_calibration : also read the loaded test after a calibration whose zig-zags were recorded
+        unloaded and again with the load (test ``loaded_load_in_calibration``; simulator only).
     methods : method keys, in table order (see :data:`studies.common.methods.ALL_METHODS`).
     settings : training budgets.
     """
@@ -71,6 +77,7 @@ class CompareConfig:
     sparsities: tuple[float, ...] = PAPER_SPARSITIES
     test_duration: float = 1200.0
     payload_kg: float = 0.5
+    loaded_calibration: bool = True
     methods: tuple[str, ...] = ALL_METHODS
     settings: MethodSettings = field(default_factory=MethodSettings)
 
@@ -96,24 +103,35 @@ class CompareConfig:
 
 @dataclass(frozen=True, eq=False)
 class Comparison:
-    """Data and per-method results of one comparison."""
+    """Data and per-method results of one comparison.
+
+    ``runs`` are the methods trained on ``data.train``; ``retrained`` holds, for each test read
+    after another calibration (``data.trainings``), the same methods trained on that one.
+    """
 
     data: ComparisonData
     runs: dict[str, MethodRun]
+    retrained: dict[str, dict[str, MethodRun]] = field(default_factory=dict)
 
     @property
     def tests(self) -> tuple[str, ...]:
         return tuple(self.data.tests)
 
+    def runs_for(self, test: str) -> dict[str, MethodRun]:
+        """The method runs that scored ``test``, keyed by method."""
+        return self.retrained.get(test, self.runs)
+
 
 def compare(data: ComparisonData, config: CompareConfig, *, n_jobs: int = -1, backend: str = "loky",
             scheduler: str | None = None, progress: bool = True) -> Comparison:
-    """Train and score the configured methods on the data."""
+    """Train and score the configured methods on the data (once per calibration, one pool)."""
     catalogue = method_catalogue(config.settings)
     methods = [catalogue[key] for key in config.methods]
-    runs = run_methods(methods, data.train, data.tests, seed=config.seed, n_jobs=n_jobs, backend=backend,
-                       scheduler=scheduler, progress=progress)
-    return Comparison(data, runs)
+    default_tests = {name: test for name, test in data.tests.items() if name not in data.trainings}
+    groups = [(data.train, default_tests)] + [(train, {name: data.tests[name]}) for name, train in data.trainings.items()]
+    grouped = run_method_groups(methods, groups, seed=config.seed, n_jobs=n_jobs, backend=backend,
+                                scheduler=scheduler, progress=progress)
+    return Comparison(data, grouped[0], dict(zip(data.trainings, grouped[1:])))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -147,7 +165,7 @@ def test_results(comparison: Comparison, test: str) -> dict:
     """``{"joint_rmse": {method: [j1 deg, j2 deg, j3 mm] | None}, "joint_rmse_ci95": {method: [[low,
     high]] * 3 | None}, "cartesian_rmse": {...}, ...}``: means and 95 % intervals over the seeds."""
     joint, joint_ci, joint_std, cartesian, cartesian_std = {}, {}, {}, {}, {}
-    for key, run in comparison.runs.items():
+    for key, run in comparison.runs_for(test).items():
         if not run.ok:
             joint[key] = joint_ci[key] = joint_std[key] = cartesian[key] = cartesian_std[key] = None
             continue
@@ -158,6 +176,59 @@ def test_results(comparison: Comparison, test: str) -> dict:
     return {"joint_rmse": joint, "joint_rmse_ci95": joint_ci, "joint_rmse_std": joint_std,
             "cartesian_rmse": cartesian, "cartesian_rmse_std": cartesian_std,
             "samples": len(comparison.data.tests[test])}
+
+
+def filter_events(comparison: Comparison, test: str) -> dict:
+    """``{method: {"rejected": n, "coasted": n, "reinitialised": n}}`` of the filters on ``test``.
+
+    The counts the UKF methods (``ukf``, ``ukf_disturbance``, ``ukf_hybrid``) keep in ``events_``
+    while predicting the test: readings rejected by the gate, samples coasted through, and
+    re-initialisations after a divergence, summed over the test's recordings. The filters are
+    deterministic (one training seed), so the first seed's counts are the run's.
+    """
+    events = {}
+    for key, run in comparison.runs_for(test).items():
+        if run.ok and run.outcomes and test in run.outcomes[0].events:
+            events[key] = {name: int(count) for name, count in run.outcomes[0].events[test].items()}
+    return events
+
+
+TORQUE_COLUMNS = ("tau.shoulder", "tau.elbow", "tau.z_ins")
+"""The logged motor torques of joints 1-3 (ravenstate ``tau``: the controller's command, N m at the
+capstan after the gearbox, for the insertion joint too)."""
+
+
+def torque_summary(data: ComparisonData) -> dict | None:
+    """Mean and standard deviation of the logged torque of joints 1-3 in each calibration recording
+    and test, ``{name: {"mean": [3], "std": [3], "samples": n}}`` (N m); None without torques.
+
+    The calibration recordings are those of the largest training set (with the loaded reading:
+    the zig-zags unloaded, then with the load); a test shared by two readings appears once.
+    """
+    names = data.train.feature_names
+    if not all(column in names for column in TORQUE_COLUMNS):
+        return None
+    columns = [names.index(column) for column in TORQUE_COLUMNS]
+
+    def one(samples, rows=None) -> dict:
+        tau = samples.X[:, columns] if rows is None else samples.X[rows][:, columns]
+        return {"mean": _rounded(tau.mean(axis=0)), "std": _rounded(tau.std(axis=0)), "samples": int(tau.shape[0])}
+
+    summary = {}
+    training = max([data.train, *data.trainings.values()], key=len)
+    for k, rows in enumerate(training.recordings()):
+        name = f"calibration recording {k + 1}"
+        payload = training.labels.get("payload_kg")
+        if payload is not None:
+            name += f" ({float(np.mean(payload[rows])) * 1e3:.0f} g at the tool tip)"
+        summary[name] = one(training, rows)
+    seen = []
+    for test, samples in data.tests.items():
+        if any(samples is other for other in seen):
+            continue
+        seen.append(samples)
+        summary[f"{test} test"] = one(samples)
+    return summary
 
 
 def ordering_holds(joint_rmse: dict) -> dict:
@@ -199,7 +270,7 @@ def joint_table(comparison: Comparison, test: str) -> tuple[list[str], list[list
     headers = ["Method", "Robot", "Model", "Data", *JOINT_HEADERS]
     rows = []
     robot = _robot_name(comparison)
-    for run in comparison.runs.values():
+    for run in comparison.runs_for(test).values():
         m = run.method
         if run.ok:
             rows.append([_row_label(m), robot, m.model,
@@ -222,7 +293,7 @@ def cartesian_table(comparison: Comparison, test: str) -> tuple[list[str], list[
     headers = ["Method", "Robot", "Model", "Data", *CARTESIAN_HEADERS]
     rows = []
     robot = _robot_name(comparison)
-    for run in comparison.runs.values():
+    for run in comparison.runs_for(test).values():
         m = run.method
         cartesian = run.mean(test).cartesian if run.ok else None
         if cartesian is not None:
@@ -258,15 +329,18 @@ def results_document(comparison: Comparison, config: CompareConfig, *, started: 
         "methods": {key: {"label": run.method.label, "model": run.method.model,
                           "reference": run.method.reference, "status": run.status, "note": run.note,
                           "n_seeds": len(run.seeds), "fit_seconds": round(run.fit_seconds, 3),
-                          "warnings": list(run.warnings)}
+                          "warnings": list(run.warnings),
+                          "retrained": {test: {"status": runs[key].status, "note": runs[key].note,
+                                               "fit_seconds": round(runs[key].fit_seconds, 3),
+                                               "warnings": list(runs[key].warnings)}
+                                        for test, runs in comparison.retrained.items()}}
                     for key, run in comparison.runs.items()},
     }
     for test in comparison.tests:
         document[test] = test_results(comparison, test)
         document[test]["paper_ordering"] = ordering_holds(document[test]["joint_rmse"])
-        ukf = comparison.runs.get("ukf")
-        if ukf is not None and ukf.ok and ukf.outcomes and test in ukf.outcomes[0].events:
-            document[test]["ukf_events"] = dict(ukf.outcomes[0].events[test])
+        document[test]["ukf_events"] = filter_events(comparison, test)
+    document["logged_torque"] = torque_summary(comparison.data)
     document["published"] = published_rows()
     return reporting.to_jsonable(document)
 
@@ -313,13 +387,14 @@ def write_outputs(comparison: Comparison, document: dict, out: Path) -> list[Pat
     figures = []
     for test in comparison.tests:
         samples = comparison.data.tests[test]
-        estimates = {run.method.label: run.predictions(test) for run in comparison.runs.values()
+        runs = comparison.runs_for(test)
+        estimates = {run.method.label: run.predictions(test) for run in runs.values()
                      if run.ok and run.predictions(test) is not None}
         if estimates:
             figures.append(plots.error_over_time(samples.time, samples.targets, estimates,
                                                  out / f"error_over_time_{test}.png",
                                                  f"Joint error over time, {test} test"))
-        joint = {run.method.label: list(run.mean(test).joint) for run in comparison.runs.values() if run.ok}
+        joint = {run.method.label: list(run.mean(test).joint) for run in runs.values() if run.ok}
         published = {}
         if test == "unloaded" and _robot_name(comparison) == "virtual RAVEN-II":
             for key, values in paper.TABLE_I["J2-J3"].items():
@@ -330,7 +405,7 @@ def write_outputs(comparison: Comparison, document: dict, out: Path) -> list[Pat
         if joint:
             figures.append(plots.method_bars(joint, JOINT_HEADERS, out / f"rmse_joints_{test}.png",
                                            f"RMSE per joint, {test} test", published=published))
-        cartesian = {run.method.label: list(run.mean(test).cartesian) for run in comparison.runs.values()
+        cartesian = {run.method.label: list(run.mean(test).cartesian) for run in runs.values()
                      if run.ok and run.mean(test).cartesian is not None}
         if cartesian:
             figures.append(plots.method_bars(cartesian, CARTESIAN_HEADERS, out / f"rmse_tool_tip_{test}.png",
@@ -350,10 +425,28 @@ def report_markdown(comparison: Comparison, document: dict, figures: list[Path],
                   reporting.markdown_table(*joint_table(comparison, test)), "",
                   f"## {test} test: tool tip, last joints exact (Table IV)", "",
                   reporting.markdown_table(*cartesian_table(comparison, test)), ""]
-    not_run = [f"- {run.method.label}: {run.note}" for run in comparison.runs.values() if not run.ok]
+    torque = document.get("logged_torque")
+    if torque:
+        parts += ["## The logged motor torque", "",
+                  "ravenstate `tau` of joints 1-3 (the controller's command, N m at the capstan after the gearbox): "
+                  "mean and standard deviation over each recording.", "",
+                  reporting.markdown_table(["Recording", "J1 mean", "J2 mean", "J3 mean", "J1 std", "J2 std", "J3 std"],
+                                           [[name, *values["mean"], *values["std"]] for name, values in torque.items()],
+                                           digits=4), ""]
+    events = events_table(document)
+    if events is not None:
+        parts += ["## What the filters rejected", "",
+                  "Per test: readings rejected by the gate / samples coasted through / re-initialisations "
+                  "after a divergence, summed over the test's recordings.", "",
+                  reporting.markdown_table(*events), ""]
+    trainings = [("", comparison.runs)] + [(f" (trained for the {test} test)", runs)
+                                           for test, runs in comparison.retrained.items()]
+    not_run = [f"- {run.method.label}{where}: {run.note}" for where, runs in trainings for run in runs.values()
+               if not run.ok]
     if not_run:
         parts += ["## Methods that did not run", "", *not_run, ""]
-    warned = [f"- {run.method.label}: {message}" for run in comparison.runs.values() for message in run.warnings]
+    warned = [f"- {run.method.label}{where}: {message}" for where, runs in trainings for run in runs.values()
+              for message in run.warnings]
     if warned:
         parts += ["## Warnings raised while training or predicting", "", *warned, ""]
     parts += ["## How to read this", "",
@@ -363,15 +456,35 @@ def report_markdown(comparison: Comparison, document: dict, figures: list[Path],
               "forward kinematics of the corrected joints 1-3 with the recorded tool joints taken as exact.", ""]
     if _robot_name(comparison) == "virtual RAVEN-II":
         parts += ["On the virtual RAVEN-II the UKF identifies a cable model made of the same kinds of effects the "
-                  "simulator is built from, so its model error is smaller than on a real robot; the learned "
-                  "calibrators know nothing of the physics. The loaded test shows what no method saw in training.",
-                  ""]
+                  "simulator is built from, and a few effects outside its class; the learned calibrators know "
+                  "nothing of the physics. The 'loaded' test shows what no method saw in training; the "
+                  f"'{LOADED_CALIBRATION_TEST}' test is the same recording, read by the methods trained on "
+                  "zig-zags recorded unloaded and again with the load. The controller is not told of the load: "
+                  "its position loop takes it up, so the logged motor torque (ravenstate `tau`, the controller's "
+                  "command) carries the load's holding torque; the table of the logged torque shows that shift "
+                  "beside the spread the motion gives the torque within each recording.", ""]
     parts += ["## Figures", "", reporting.figure_links(figures, out), ""]
     return "\n".join(parts)
 
 
+def events_table(document: dict) -> tuple[list[str], list[list]] | None:
+    """Headers and rows of the filters' event counts, one column per test; None without a filter."""
+    tests = document["tests"]
+    keys = list(dict.fromkeys(key for test in tests for key in document[test].get("ukf_events", {})))
+    if not keys:
+        return None
+    rows = [[document["methods"][key]["label"], *[_events_cell(document[test].get("ukf_events", {}).get(key))
+                                                  for test in tests]] for key in keys]
+    return ["Method", *[f"{test} test" for test in tests]], rows
+
+
+def _events_cell(events: dict | None) -> str:
+    return "-" if events is None else f"{events['rejected']}/{events['coasted']}/{events['reinitialised']}"
+
+
 def summary_table(document: dict) -> str:
-    """The terminal's table: RMSE of joints 1-3 (deg, deg, mm) per method, one column group per test."""
+    """The terminal's table: RMSE of joints 1-3 (deg, deg, mm) per method, one column group per test;
+    beside the filters' rows, their event counts per test (rejected / coasted / re-initialised)."""
     tests = document["tests"]
     labels = {key: method["label"] for key, method in document["methods"].items()}
     title = "RMSE (deg, deg, mm)"
@@ -389,16 +502,22 @@ def summary_table(document: dict) -> str:
                 continue
             halves = [(high - low) / 2 for low, high in intervals]
             cells.append("".join(f"{v:8.3f}" + (f" ±{h:5.3f}" if h > 0 else " " * 7) for v, h in zip(values, halves)))
-        note = "" if document["methods"][key]["status"] == "ok" else f"  ({document['methods'][key]['note']})"
-        lines.append(f"{label:<{width}}" + "".join(f" {cell}" for cell in cells) + note)
+        method = document["methods"][key]
+        notes = [] if method["status"] == "ok" else [method["note"]]
+        notes += [f"{test}: {run['note']}" for test, run in method.get("retrained", {}).items() if run["status"] != "ok"]
+        events = [document[test].get("ukf_events", {}).get(key) for test in tests]
+        events_text = f"  events {' | '.join(_events_cell(e) for e in events)}" if any(events) else ""
+        note = f"  ({'; '.join(notes)})" if notes else ""
+        lines.append(f"{label:<{width}}" + "".join(f" {cell}" for cell in cells) + events_text + note)
     lines.append("± : half-width of the 95 % Student-t interval over a method's training seeds (n_seeds in "
                  "results.json); no ± : one run (a deterministic method or one seed). Every method sees the "
                  "same simulated recordings.")
-    for test in tests:
-        events = document[test].get("ukf_events")
-        if events is not None:
-            lines.append(f"UKF on the {test} test: {events['rejected']} readings rejected, {events['coasted']} samples "
-                         f"coasted through, {events['reinitialised']} re-initialisations")
+    if any(document[test].get("ukf_events") for test in tests):
+        lines.append("events: the filter's readings rejected / samples coasted through / re-initialisations, "
+                     "per test in column order (results.json: <test>.ukf_events).")
+    if LOADED_CALIBRATION_TEST in tests:
+        lines.append(f"{LOADED_CALIBRATION_TEST}: the loaded test read by the methods trained on the zig-zags "
+                     "recorded unloaded and again with the load.")
     return "\n".join(lines)
 
 
@@ -409,7 +528,7 @@ def configure(args) -> CompareConfig:
         raise ValueError("--robot-params describes a simulated robot; it cannot be combined with --data")
     config = CompareConfig.quick(args.seed) if args.quick else CompareConfig(seed=args.seed)
     settings = config.settings if args.dnn_seeds is None else config.settings.with_(dnn_seeds=args.dnn_seeds)
-    return replace(config, methods=args.methods, settings=settings)
+    return replace(config, methods=args.methods, settings=settings, loaded_calibration=args.data is None)
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -435,7 +554,8 @@ def main(argv: list[str] | None = None) -> dict:
             say(f"simulating the paper's protocol on the virtual RAVEN-II ({config.direction}, "
                 f"{len(config.sparsities)} sparsities, {config.test_duration:.0f} s tests)...")
             data = simulated_comparison(config.seed, config.direction, config.sparsities, config.test_duration,
-                                        config.payload_kg, params=args.robot_params)
+                                        config.payload_kg, params=args.robot_params,
+                                        loaded_calibration=config.loaded_calibration)
         else:
             with study.reading(args.data if args.test_data is None else f"{args.data} or {args.test_data}"):
                 data = recorded_comparison(args.data, test_path=args.test_data, arm=args.arm,

@@ -12,7 +12,7 @@ import pytest
 from kinematics import RavenII
 from simulation.recordings.dvrk import locate_dvrk_data
 from studies import compare_sota
-from studies.common.data_sources import recorded_comparison, simulated_comparison
+from studies.common.data_sources import LOADED_CALIBRATION_TEST, recorded_comparison, simulated_comparison
 from studies.common.methods import BASE_METHODS, MethodSettings
 
 REDUCED = MethodSettings(dnn_seeds=1, dnn_epochs=60, lstm_epochs=2, forest_trees=5, two_phase_max_samples=800,
@@ -235,3 +235,89 @@ def test_the_report_places_the_robot_on_the_model_mismatch_axis():
     assert not {"cable_stretch", "coupling", "coulomb_friction"} & set(note["out_of_class_effects"])
     own_class = compare_sota.model_mismatch_note(RavenParameters().only("cable_stretch", "coupling", "noise"))
     assert own_class["lam"] == 0.0 and own_class["out_of_class_effects"] == []
+
+
+def test_filter_event_counts_sit_beside_the_ukf_rows(document):
+    for test in document["tests"]:
+        events = document[test]["ukf_events"]
+        ran = [key for key in ("ukf",) if document["methods"][key]["status"] == "ok"]
+        assert set(events) == set(ran)
+        for counts in events.values():
+            assert set(counts) == {"rejected", "coasted", "reinitialised"}
+            assert all(isinstance(n, int) and n >= 0 for n in counts.values())
+    summary = compare_sota.summary_table(document)
+    ukf_row = next(line for line in summary.splitlines() if line.startswith("UKF "))
+    assert ("events" in ukf_row) == bool(document["unloaded"]["ukf_events"])
+    assert not any("events" in line for line in summary.splitlines() if line.startswith("Linear regression"))
+
+
+LOAD_METHODS = ("raw", "fixed_offset", "linear")
+
+
+@pytest.fixture(scope="module")
+def loaded_reading():
+    data = simulated_comparison(seed=5, sparsities=(1 / 3,), test_duration=60.0, loaded_calibration=True)
+    config = compare_sota.CompareConfig(seed=5, sparsities=(1 / 3,), test_duration=60.0, methods=LOAD_METHODS,
+                                        settings=REDUCED)
+    result = compare_sota.compare(data, config, n_jobs=1, backend="sequential", progress=False)
+    document = compare_sota.results_document(result, config, started="now", runtime_s=1.0, command="test",
+                                             run_options={"quick": False})
+    return data, result, document
+
+
+def test_loaded_test_is_read_after_both_calibrations(loaded_reading):
+    data, _, document = loaded_reading
+    assert document["tests"] == ["unloaded", "loaded", LOADED_CALIBRATION_TEST]
+    both = data.training_for(LOADED_CALIBRATION_TEST)
+    assert len(both.recordings()) == 2 and data.training_for("loaded") is data.train
+    np.testing.assert_array_equal(np.unique(both.labels["payload_kg"]), [0.0, 0.5])
+    np.testing.assert_array_equal(both.X[:len(data.train)], data.train.X)
+    reading = document[LOADED_CALIBRATION_TEST]
+    for key in LOAD_METHODS:
+        assert len(reading["joint_rmse"][key]) == 3 and all(np.isfinite(reading["joint_rmse"][key]))
+        assert len(reading["joint_rmse_ci95"][key]) == 3
+    # the same loaded recording: the uncorrected encoders score the same in both readings
+    assert reading["joint_rmse"]["raw"] == document["loaded"]["joint_rmse"]["raw"]
+    assert LOADED_CALIBRATION_TEST in compare_sota.summary_table(document)
+
+
+def test_an_offset_calibrated_with_the_load_is_the_mean_error_of_both_recordings(loaded_reading):
+    data, result, document = loaded_reading
+    both, test = data.training_for(LOADED_CALIBRATION_TEST), data.tests["loaded"]
+    offset = np.mean(both.targets - both.raw_joints, axis=0)
+    expected = np.sqrt(np.mean((test.raw_joints + offset - test.targets) ** 2, axis=0)) * [180 / np.pi, 180 / np.pi, 1e3]
+    np.testing.assert_allclose(document[LOADED_CALIBRATION_TEST]["joint_rmse"]["fixed_offset"], expected, rtol=1e-5)
+    # the payload stretches the insertion cable: an offset that saw loaded motion is closer on joint 3
+    assert document[LOADED_CALIBRATION_TEST]["joint_rmse"]["fixed_offset"][2] < \
+        document["loaded"]["joint_rmse"]["fixed_offset"][2]
+
+
+def test_a_subsampled_window_model_sees_every_calibration_recording(loaded_reading):
+    from studies.common.methods import CalibratorOnSamples
+    from estimators import WindowLinearCalibrator
+
+    data, _, _ = loaded_reading
+    both = data.training_for(LOADED_CALIBRATION_TEST)
+    model = CalibratorOnSamples(WindowLinearCalibrator(window=3), temporal=True, max_train_samples=400)
+    rows = model._training_rows(both)
+    assert len(rows) == 400 and rows.stride == 1
+    assert [block.size for block in rows.recordings()] == [200, 200]
+
+
+def test_the_logged_insertion_torque_carries_the_payloads_holding_force(loaded_reading):
+    from simulation.model.parameters import RavenParameters
+    from studies.common.evaluation import raven_model
+
+    data, _, document = loaded_reading
+    torque = document["logged_torque"]
+    unloaded, loaded = (torque[name]["mean"][2] for name in torque if name.startswith("calibration recording"))
+    assert {"unloaded test", "loaded test"} <= set(torque) and f"{LOADED_CALIBRATION_TEST} test" not in torque
+    # the controller is not told of the load: its position loop takes up the payload's pull along
+    # the insertion axis, seen at the capstan through the controller's transmission
+    robot, constants = raven_model("left"), RavenParameters().constants
+    both = data.training_for(LOADED_CALIBRATION_TEST)
+    q = both.targets[both.recording == 1][::20]
+    pull = np.mean([robot.gravity_torques(np.r_[row, 0.0, 0.0, 0.0], payload_kg=0.5)[2]
+                    - robot.gravity_torques(np.r_[row, 0.0, 0.0, 0.0], payload_kg=0.0)[2] for row in q])
+    expected = pull / constants.transmission_ratio[2] * constants.gearbox[2]
+    assert loaded - unloaded == pytest.approx(expected, rel=0.25)

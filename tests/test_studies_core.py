@@ -79,6 +79,9 @@ def test_samples_concat_renumbers_recordings_and_select_marks_thinning():
     assert np.array_equal(joined.X[30:], b.X)
     assert joined.select(np.arange(10, 40)).stride == 1
     assert joined.select(np.arange(0, 50, 5)).stride > 1
+    # the first rows of each recording are still consecutive log samples of their recording
+    assert joined.select(np.r_[0:5, 15:20, 30:35]).stride == 1
+    assert joined.select(np.r_[0:5, 7:12]).stride > 1
     with pytest.raises(ValueError, match="increasing"):
         joined.select(np.array([3, 1]))
 

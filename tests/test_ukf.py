@@ -244,3 +244,27 @@ def test_verbose_reports_the_filter_run_and_changes_nothing(session, fitted, cap
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 1 and lines[0].startswith("UKF: filtered") and "events" in lines[0]
     np.testing.assert_array_equal(estimates.joints, quiet_estimates.joints)
+
+
+def test_noise_tuning_never_keeps_a_noise_under_which_the_filter_diverges(session, fitted, monkeypatch):
+    import dataclasses
+
+    from estimators.ukf import estimator as module
+
+    calibration, _, _ = session
+    real, runs = module.run_filter, []
+
+    def diverging_after_the_first_run(*args, **kwargs):
+        estimates = real(*args, **kwargs)
+        runs.append(None)
+        if len(runs) == 1:
+            return estimates
+        return dataclasses.replace(estimates, n_reinitialised=1,
+                                   reinitialisations=((1, "covariance beyond COVARIANCE_LIMIT"),))
+
+    monkeypatch.setattr(module, "run_filter", diverging_after_the_first_run)
+    estimator = UKFJointEstimator(tuning="likelihood", tuning_seconds=10.0, tuning_evaluations=8).fit_identified(
+        fitted.identification_, calibration)
+    (start, first), *others = estimator.tuning_history_
+    assert first < 1e30 and others and all(value == 1e30 for _, value in others)
+    np.testing.assert_allclose(estimator.process_noise_.as_vector(), start)

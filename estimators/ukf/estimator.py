@@ -56,7 +56,8 @@ from simulation.recordings.dataset import CalibrationDataset
 from estimators.ukf.model import CableModel
 from estimators.ukf.noise import ProcessNoise, encoder_noise, physical_process_noise
 from estimators.ukf.process import MAX_STEP, REFRESH
-from estimators.ukf.run import JointEstimates, SampleLimits, UKFSettings, check_log_rate, run_filter
+from estimators.ukf.run import (DIVERGENCE_REASONS, JointEstimates, SampleLimits, UKFSettings, check_log_rate,
+                                run_filter)
 
 TUNING_CRITERIA = ("likelihood", "joint_error", "none")
 VELOCITY_SCALE_FACTORS = (0.3, 1.0, 3.0)
@@ -88,7 +89,9 @@ class UKFJointEstimator(BaseEstimator):
     process_noise : a :class:`~estimators.ukf.noise.ProcessNoise` to use as is (no tuning), or None.
     measurement_noise : (3,) standard deviation of the motor encoder readings (motor rad), or None
         for one-count quantization.
-    tuning : ``"likelihood"``, ``"joint_error"`` or ``"none"`` (keep the starting noise).
+    tuning : ``"likelihood"``, ``"joint_error"`` or ``"none"`` (keep the starting noise). A noise
+        under which the filter diverges on the tuning window (:data:`~estimators.ukf.run.DIVERGENCE_REASONS`)
+        is never kept, however well it scores.
     tuning_seconds : length of the calibration log the tuning filters (from its start), s.
     tuning_evaluations : filter runs the Nelder-Mead search may spend.
     payload_kg : payload the process model assumes at the tool tip (kg); the controller does not
@@ -368,7 +371,8 @@ class UKFJointEstimator(BaseEstimator):
                 value = -estimates.log_likelihood / len(window)
             else:
                 value = float(np.sum(np.mean((estimates.joints - window.joints) ** 2, axis=0) / raw_mse))
-            if not np.isfinite(value):
+            # a noise under which the filter diverges is no candidate, however likely its readings
+            if not np.isfinite(value) or any(reason in DIVERGENCE_REASONS for _, reason in estimates.reinitialisations):
                 value = 1e30
             self.tuning_history_.append((np.asarray(vector, dtype=float).copy(), float(value)))
             self._say(2, f"UKF: tuning run {len(self.tuning_history_)}: objective {value:.6g}")

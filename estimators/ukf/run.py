@@ -68,6 +68,8 @@ SPEED_MARGIN = 0.10
 COVARIANCE_LIMIT = np.array([1.0, 1.0, 0.1])
 """Largest standard deviation of a motor coordinate or joint position (rad, rad, m) before the
 filter counts as diverged: beyond it the estimate says nothing about the arm's pose."""
+DIVERGENCE_REASONS = ("non-finite prediction", "covariance beyond COVARIANCE_LIMIT")
+"""Re-initialisation reasons that mean the filter diverged (rather than lost its readings)."""
 LOST_SPREAD = np.array([0.5, 0.5, 0.05])
 """Smallest joint standard deviation (rad, rad, m) reported while the filter has lost the arm (no
 usable reading for ``max_gap`` seconds): the spread of the joints over a working motion."""

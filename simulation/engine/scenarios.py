@@ -76,30 +76,46 @@ def record_random_test(robot: VirtualRaven, duration: float = TEST_DURATION, see
 
 @dataclass(frozen=True)
 class ProtocolRecordings:
-    """The recordings of :func:`paper_protocol`."""
+    """The recordings of :func:`paper_protocol`.
+
+    ``calibration_loaded`` is None unless the protocol was asked to repeat the calibration
+    zig-zags with the payload hung at the tool tip.
+    """
 
     calibration: Recording
     test_unloaded: Recording
     test_loaded: Recording
+    calibration_loaded: Recording | None = None
 
 
 def paper_protocol(params: RavenParameters | None = None, seed: int = 0, direction: str = "J2-J3",
                    sparsities=PAPER_SPARSITIES, test_duration: float = TEST_DURATION,
-                   loaded_payload_kg: float = LOADED_PAYLOAD_KG, **robot_options) -> ProtocolRecordings:
+                   loaded_payload_kg: float = LOADED_PAYLOAD_KG, loaded_calibration: bool = False,
+                   **robot_options) -> ProtocolRecordings:
     """Calibration zig-zags, then an independent random test unloaded, then the same loaded.
 
     The paper's main protocol (section II-E, Tables I and III): train on the zig-zags of one
     direction at its sparsities, evaluate on an independent 20-minute random motion. The loaded
     test hangs ``loaded_payload_kg`` at the tool tip for a second, independent random motion.
+
+    With ``loaded_calibration`` the same zig-zags are recorded a second time right after the
+    first, with the payload hung at the tool tip (what a user who wants a calibration valid under
+    load would record before operating), and the payload is taken off again before the tests.
     """
     s_robot, s_unloaded, s_loaded = _seeds(seed, 3)
     robot = powered_on(params, s_robot, **robot_options)
     calibration = record_calibration(robot, direction, sparsities)
+    calibration_loaded = None
+    if loaded_calibration:
+        robot.set_payload(loaded_payload_kg)
+        calibration_loaded = record_calibration(robot, direction, sparsities)
+        robot.set_payload(0.0)
     unloaded = record_random_test(robot, test_duration, s_unloaded, "test unloaded")
     robot.set_payload(loaded_payload_kg)
     loaded = record_random_test(robot, test_duration, s_loaded, "test loaded")
     robot.set_payload(0.0)
-    return ProtocolRecordings(calibration=calibration, test_unloaded=unloaded, test_loaded=loaded)
+    return ProtocolRecordings(calibration=calibration, test_unloaded=unloaded, test_loaded=loaded,
+                              calibration_loaded=calibration_loaded)
 
 
 def long_operation(robot: VirtualRaven, kind: str = "unloaded", hours: float = 6.0, seed: int = 0,

@@ -2,7 +2,9 @@
 
 * :func:`simulated_comparison` runs the paper's protocol on the virtual RAVEN-II
   (:func:`simulation.paper_protocol`): J2-J3 zig-zag calibration at the paper's sparsities, then
-  independent 20-minute random tests, unloaded and with 500 g at the tool tip.
+  independent 20-minute random tests, unloaded and with 500 g at the tool tip; with
+  ``loaded_calibration`` the loaded test is read a second time, after a calibration whose zig-zags
+  were also recorded with the load (:data:`LOADED_CALIBRATION_TEST`).
 * :func:`recorded_comparison` reads one's own robot data: a folder of ROS bags, a dataset file
   (``.parquet`` written by ``CalibrationDataset.to_parquet``, or its ``.csv``), a single bag, or
   the dVRK recordings of Hwang et al. (folder with ``q_des.npy``/``q_act.npy``/``t_stamp.npy``,
@@ -32,6 +34,8 @@ from studies.common.evaluation import raven_model
 from studies.common.samples import Samples
 
 DEFAULT_TEST_FRACTION = 0.3
+LOADED_CALIBRATION_TEST = "loaded_load_in_calibration"
+"""Test name of the loaded test scored by methods trained on zig-zags recorded unloaded and loaded."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,12 +48,25 @@ class ComparisonData:
     tests : test name -> Samples (e.g. ``"unloaded"``, ``"loaded"``)
     source : what the data are, in words.
     notes : lines for the report (what is missing from the data, how it was split...).
+    trainings : test name -> the Samples the methods are trained on for that test, for tests read
+        after another calibration than ``train`` (e.g. :data:`LOADED_CALIBRATION_TEST`); every
+        other test is scored by the methods trained on ``train``.
     """
 
     train: Samples
     tests: dict[str, Samples]
     source: str
     notes: tuple[str, ...] = field(default_factory=tuple)
+    trainings: dict[str, Samples] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        unknown = [name for name in self.trainings if name not in self.tests]
+        if unknown:
+            raise ValueError(f"trainings given for tests {unknown} that are not among the tests {list(self.tests)}")
+
+    def training_for(self, test: str) -> Samples:
+        """The samples the methods scored on ``test`` are trained on."""
+        return self.trainings.get(test, self.train)
 
     def describe(self) -> dict:
         """Sizes and durations of the training and test sets."""
@@ -57,31 +74,47 @@ class ComparisonData:
             return {"samples": len(samples), "recordings": len(samples.recordings()),
                     "duration_s": round(samples.duration, 1)}
 
-        return {"train": one(self.train), **{name: one(test) for name, test in self.tests.items()}}
+        sizes = {"train": one(self.train), **{name: one(test) for name, test in self.tests.items()}}
+        if self.trainings:
+            sizes["trainings"] = {name: one(train) for name, train in self.trainings.items()}
+        return sizes
 
 
 def simulated_comparison(seed: int = 0, direction: str = "J2-J3", sparsities=PAPER_SPARSITIES,
                          test_duration: float = 1200.0, payload_kg: float = 0.5,
-                         params: RavenParameters | None = None) -> ComparisonData:
+                         params: RavenParameters | None = None,
+                         loaded_calibration: bool = False) -> ComparisonData:
     """The paper's protocol on the virtual RAVEN-II, as training and test samples.
 
     The calibration is recorded unloaded; the ``"loaded"`` test hangs ``payload_kg`` at the tool
-    tip, which no training sample saw. ``params`` describes the simulated robot (default: the
-    virtual RAVEN-II, ``RavenParameters()``); the methods see only its logs.
+    tip, which no training sample saw. With ``loaded_calibration`` the loaded test is read a second
+    time as :data:`LOADED_CALIBRATION_TEST`, by methods trained on the same zig-zags recorded twice,
+    unloaded and then with the payload (two recordings). ``params`` describes the simulated robot
+    (default: the virtual RAVEN-II, ``RavenParameters()``); the methods see only its logs.
     """
     runs = paper_protocol(params, seed=seed, direction=direction, sparsities=tuple(sparsities),
-                          test_duration=test_duration, loaded_payload_kg=payload_kg)
+                          test_duration=test_duration, loaded_payload_kg=payload_kg,
+                          loaded_calibration=loaded_calibration)
     robot = raven_model(runs.calibration.arm)
     train = Samples.from_dataset(recording_to_dataset(runs.calibration, robot))
-    tests = {"unloaded": Samples.from_dataset(recording_to_dataset(runs.test_unloaded, robot)),
-             "loaded": Samples.from_dataset(recording_to_dataset(runs.test_loaded, robot))}
+    loaded = Samples.from_dataset(recording_to_dataset(runs.test_loaded, robot))
+    tests = {"unloaded": Samples.from_dataset(recording_to_dataset(runs.test_unloaded, robot)), "loaded": loaded}
     sparsity_text = ", ".join(f"1/{round(1 / s)}" for s in sparsities)
-    notes = (f"Calibration: {direction} zig-zags at sparsities {sparsity_text} "
+    notes = [f"Calibration: {direction} zig-zags at sparsities {sparsity_text} "
              f"({train.duration:.0f} s, unloaded); tests: independent random motions of "
              f"{test_duration:.0f} s, unloaded and with {payload_kg * 1e3:.0f} g at the tool tip "
-             "(the load is not in the training data).",)
+             "(the 'loaded' test: the load is not in the training data)."]
+    trainings = {}
+    if loaded_calibration:
+        tests[LOADED_CALIBRATION_TEST] = loaded
+        trainings[LOADED_CALIBRATION_TEST] = Samples.concat(
+            [train, Samples.from_dataset(recording_to_dataset(runs.calibration_loaded, robot))])
+        notes.append(f"The '{LOADED_CALIBRATION_TEST}' test is the same loaded test, read by the methods trained "
+                     f"on the zig-zags recorded twice: unloaded, then again with {payload_kg * 1e3:.0f} g at the "
+                     f"tool tip ({trainings[LOADED_CALIBRATION_TEST].duration:.0f} s in all, two recordings).")
     robot_name = "virtual RAVEN-II" if params is None or params == RavenParameters(arm=params.arm) else "simulated robot (given parameters)"
-    return ComparisonData(train, tests, f"{robot_name} ({runs.calibration.arm} arm, seed {seed})", notes)
+    return ComparisonData(train, tests, f"{robot_name} ({runs.calibration.arm} arm, seed {seed})", tuple(notes),
+                          trainings)
 
 
 # ---------------------------------------------------------------------------------------------

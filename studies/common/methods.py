@@ -53,7 +53,8 @@ class CalibratorOnSamples:
     temporal : the calibrator reads a window of past rows: training rows must be consecutive log
         samples, and prediction runs recording by recording from its first row.
     max_train_samples : train on at most this many rows, drawn at random without replacement
-        with ``seed`` (a contiguous block of the first recordings for a temporal model); None: all.
+        with ``seed`` (for a temporal model, a contiguous block from the start of each recording,
+        the same number of rows from each, so every recording is seen); None: all.
     seed : seeds the subsample.
     """
 
@@ -70,7 +71,11 @@ class CalibratorOnSamples:
         if limit is None or len(samples) <= limit:
             return samples
         if self.temporal:
-            return samples.select(np.arange(int(limit)))
+            blocks = samples.recordings()
+            share = int(limit) // len(blocks)
+            if share < 2:
+                return samples.select(np.arange(int(limit)))
+            return samples.select(np.concatenate([block[:share] for block in blocks]))
         rows = np.sort(np.random.default_rng(self.seed).choice(len(samples), int(limit), replace=False))
         return samples.select(rows)
 

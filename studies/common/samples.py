@@ -186,7 +186,9 @@ class Samples:
             raise ValueError("select would leave no sample")
         if np.any(np.diff(rows) <= 0):
             raise ValueError("row indices must be strictly increasing (time order is kept)")
-        contiguous = bool(np.all(np.diff(rows) == 1)) if rows.size > 1 else True
+        # consecutive log samples within each recording (a jump to another recording is no gap)
+        same_recording = self.recording[rows[1:]] == self.recording[rows[:-1]]
+        contiguous = bool(np.all(np.diff(rows)[same_recording] == 1))
         return Samples(
             X=self.X[rows], feature_names=self.feature_names, raw_columns=self.raw_columns,
             targets=self.targets[rows], time=self.time[rows], recording=self.recording[rows],

@@ -146,38 +146,55 @@ def run_methods(methods: Sequence[Method], train: Samples, tests: Mapping[str, S
     Methods that cannot run here come back with their status and one line saying why. The
     full robot state is shipped to workers only for the methods that need it.
     """
-    runs: dict[str, MethodRun] = {}
+    return run_method_groups(methods, [(train, tests)], seed=seed, n_jobs=n_jobs, backend=backend,
+                             scheduler=scheduler, progress=progress, keep_predictions=keep_predictions)[0]
+
+
+def run_method_groups(methods: Sequence[Method], groups: Sequence[tuple[Samples, Mapping[str, Samples]]], *,
+                      seed: int = 0, n_jobs: int = -1, backend: str = "loky", scheduler: str | None = None,
+                      progress: bool = True, keep_predictions: bool = True) -> list[dict[str, MethodRun]]:
+    """:func:`run_methods` for several (training samples, test sets) pairs sharing one pool of workers.
+
+    Every method is trained on each pair's training samples and scored on that pair's tests; one
+    result dict per pair, in order. One pool keeps both cores busy to the end of the last pair.
+    """
+    blocked: list[dict[str, MethodRun]] = [{} for _ in groups]
     tasks, owners = [], []
-    light_train = train.without_dataset()
-    light_tests = {name: test.without_dataset() for name, test in tests.items()}
-    for method in methods:
-        blocked = why_not_runnable(method, train, tests)
-        if blocked:
-            runs[method.key] = MethodRun(method, *blocked)
-            continue
-        heavy = method.needs_robot_state
-        for method_seed in seeds_for(method, seed):
-            tasks.append((method, method_seed, train if heavy else light_train,
-                          tests if heavy else light_tests, keep_predictions))
-            owners.append(method.key)
+    for g, (train, tests) in enumerate(groups):
+        light_train = train.without_dataset()
+        light_tests = {name: test.without_dataset() for name, test in tests.items()}
+        for method in methods:
+            why = why_not_runnable(method, train, tests)
+            if why:
+                blocked[g][method.key] = MethodRun(method, *why)
+                continue
+            heavy = method.needs_robot_state
+            for method_seed in seeds_for(method, seed):
+                tasks.append((method, method_seed, train if heavy else light_train,
+                              tests if heavy else light_tests, keep_predictions))
+                owners.append((g, method.key))
     # longest tasks first keeps the workers busy to the end
-    order = sorted(range(len(tasks)), key=lambda i: -tasks[i][0].cost)
+    order = sorted(range(len(tasks)), key=lambda i: -tasks[i][0].cost * len(tasks[i][2]))
     results = run_tasks(fit_and_score, [tasks[i] for i in order], n_jobs=n_jobs, backend=backend,
                         scheduler=scheduler, progress=progress, description="training")
-    outcomes: dict[str, list[FitOutcome]] = {}
+    outcomes: dict[tuple[int, str], list[FitOutcome]] = {}
     for index, outcome in zip(order, results):
         outcomes.setdefault(owners[index], []).append(outcome)
-    for method in methods:
-        if method.key in runs:
-            continue
-        done = sorted(outcomes[method.key], key=lambda o: seeds_for(method, seed).index(o.seed))
-        failed = [o for o in done if o.error]
-        if failed:
-            runs[method.key] = MethodRun(method, "failed", f"failed: {failed[0].error}",
-                                         tuple(o.seed for o in done), ())
-        else:
-            runs[method.key] = MethodRun(method, "ok", "", tuple(o.seed for o in done), tuple(done))
-    return {method.key: runs[method.key] for method in methods}
+    grouped = []
+    for g in range(len(groups)):
+        runs = blocked[g]
+        for method in methods:
+            if method.key in runs:
+                continue
+            done = sorted(outcomes[(g, method.key)], key=lambda o: seeds_for(method, seed).index(o.seed))
+            failed = [o for o in done if o.error]
+            if failed:
+                runs[method.key] = MethodRun(method, "failed", f"failed: {failed[0].error}",
+                                             tuple(o.seed for o in done), ())
+            else:
+                runs[method.key] = MethodRun(method, "ok", "", tuple(o.seed for o in done), tuple(done))
+        grouped.append({method.key: runs[method.key] for method in methods})
+    return grouped
 
 
 @dataclass(frozen=True, eq=False)
