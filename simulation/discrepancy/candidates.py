@@ -14,7 +14,8 @@ from typing import Callable
 
 import numpy as np
 
-from simulation.model.effects import Backlash, CapstanRunout, CoulombFriction, Coupling, Drift, GravityStretch, Hysteresis, ViscousFriction
+from simulation.model.effects import (Backlash, CapstanRunout, CoulombFriction, Coupling, Drift, GravityStretch, Hysteresis,
+                                      TransmissionError, ViscousFriction)
 
 from simulation.discrepancy.generic import NominalModel
 from simulation.discrepancy.replay import RavenModel
@@ -156,9 +157,10 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
         Candidate("hysteresis", (ParameterBlock("stiffness", 3, 0.0, 1e5, (20.0, 10.0, 1000.0), 0.0,
                                                 LOAD_PER_STRETCH_UNITS),
                                  ParameterBlock("width", 3, 1e-6, 0.05, (3e-3, 3e-3, 2e-4), (3e-3, 3e-3, 2e-4),
-                                                JOINT_UNITS)),
-                  _raven_effect(lambda m, v: Hysteresis(stiffness=v["stiffness"], beta=0.7 / v["width"],
-                                                        gamma=0.3 / v["width"])), _raven_only),
+                                                JOINT_UNITS),
+                                 ParameterBlock("shape", 3, 0.0, 1.0, 0.2, 0.0, "1")),
+                  _raven_effect(lambda m, v: Hysteresis(stiffness=v["stiffness"], beta=1.0 / v["width"],
+                                                        gamma=v["shape"] / v["width"])), _raven_only),
         Candidate("gravity_stretch", (ParameterBlock("load_scale", 3, 0.0, 3.0, 1.0, 0.0, "1"),),
                   _raven_effect(lambda m, v: GravityStretch(load_scale=v["load_scale"])), _raven_only),
         Candidate("coupling", (ParameterBlock("delta", 3, -0.1, 0.1, (0.01, 0.002, 0.002), 0.0, "1"),),
@@ -168,6 +170,8 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
                             ParameterBlock("stiffness_loss", 3, 0.0, 1000.0, 0.5, 0.0, "1/h")),
                   _raven_effect(lambda m, v: Drift(creep_rate=v["creep_rate"], stiffness_loss=v["stiffness_loss"])),
                   _raven_only),
+        Candidate("transmission_error", (ParameterBlock("ratio_error", 3, -0.1, 0.1, 1e-3, 0.0, "1"),),
+                  _raven_effect(lambda m, v: TransmissionError(ratio_error=v["ratio_error"])), _raven_only),
         Candidate("homing_offset", (ParameterBlock("offset", 3 * len(extra_homings), -0.1, 0.1, 1e-3, 0.0,
                                                    JOINT_UNITS * len(extra_homings)),),
                   homing_build, _homing_applies),
@@ -214,13 +218,13 @@ def library(signals: MeasuredSignals) -> list[Candidate]:
     return raven_candidates(signals) if signals.kind == "raven" else generic_candidates(signals)
 
 
-RAVEN_LIBRARY = ("backlash", "hysteresis", "drift", "homing_offset")
+RAVEN_LIBRARY = ("backlash", "hysteresis", "drift", "homing_offset", "transmission_error")
 """The candidates the workflow screens on every RAVEN-II input, whatever the data: effects that the
 starting structure (the identified cable model of
 :data:`studies.common.discrepancy_runs.STARTING_STRUCTURE`) does not hold."""
 
 LIBRARY_NAMES = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "gravity_stretch", "coupling",
-                 "drift", "homing_offset")
+                 "drift", "homing_offset", "transmission_error")
 """Effect names the workflow can name. The simulator has more (``capstan_runout``), which the
 library deliberately lacks: a residual they cause is reported as unexplained."""
 

@@ -268,7 +268,12 @@ class RavenModel:
             tension = load + dry * np.sign(velocity)
             compliance = np.zeros_like(u)
 
-        joints = link + self.offsets
+        if p.is_enabled("transmission_error"):
+            # the joint moves 1 / (1 + ratio_error) of what the nominal ratios say; the registration
+            # pose's share is a constant, profiled out with the offsets
+            joints = link / (1.0 + p.effect("transmission_error").ratio_error) + self.offsets
+        else:
+            joints = link + self.offsets
         if self.homing_offsets:
             for count, extra in self.homing_offsets.items():
                 joints[signals.homing == count] += extra

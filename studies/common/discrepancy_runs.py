@@ -124,16 +124,12 @@ def write_measured(dataset, folder) -> Path:
 
 
 def uninformed_start(arm: str = "left") -> RavenParameters:
-    """Round-number starting guesses for the identification, unrelated to any generator's values:
-    cables of 50 N m/rad, 20 N m/rad and 1000 N/m hardening over 0.05 rad, 0.05 rad and 5 mm, the
-    controller's coupling, small friction."""
-    from simulation.model.effects import CableStretch, CoulombFriction, Coupling, ViscousFriction
+    """The identification's starting guesses: the nominal parameter set
+    (:func:`simulation.identification.nominal_parameters`), the controller's constants and round
+    effect values, unrelated to any generator's values."""
+    from simulation.identification import nominal_parameters
 
-    params = RavenParameters(arm=arm)
-    params = params.with_effect(CableStretch(stiffness=[50.0, 20.0, 1000.0], hardening=[0.05, 0.05, 0.005]))
-    params = params.with_effect(Coupling(delta=[0.0, 0.0, 0.0]))
-    params = params.with_effect(CoulombFriction(force=[0.1, 0.1, 0.5]))
-    return params.with_effect(ViscousFriction(coefficient=[0.1, 0.1, 1.0]))
+    return nominal_parameters(arm)
 
 
 def identified_model(dataset, mask: np.ndarray, structure=STARTING_STRUCTURE) -> RavenModel:
