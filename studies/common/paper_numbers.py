@@ -152,7 +152,7 @@ FINDING_KIND = MappingProxyType({
 
 * ``long_operation``: the drift's ``stiffness_loss``, ``payload_gain`` and ``reference_speed`` were
   set so that joint 1 ages most, the load ages faster and idle does not age (paper II-G); only the
-  hour-5 creep rate is a fit target, the ordering of idle/unloaded/loaded is built in.
+  creep rate is fitted to the error hour 5 adds (its drift part), the ordering of idle/unloaded/loaded is built in.
 * ``homing``: the homing repeatability was set so that joint 2 is the joint homing disturbs (II-I).
 * ``input_features``: the coupling and friction defaults were set so that joint positions and the
   joint-3 torque carry the error (II-K), which is what the feature study measures.
