@@ -268,3 +268,20 @@ def test_noise_tuning_never_keeps_a_noise_under_which_the_filter_diverges(sessio
     (start, first), *others = estimator.tuning_history_
     assert first < 1e30 and others and all(value == 1e30 for _, value in others)
     np.testing.assert_allclose(estimator.process_noise_.as_vector(), start)
+
+
+def test_a_negative_position_variance_is_divergence_and_a_lost_spread_stays_a_covariance():
+    from estimators.ukf.run import DIVERGENCE_REASONS, LOST_SPREAD, _diverged, _lost
+
+    healthy = np.diag(np.r_[np.full(3, 1e-6), np.full(3, 1e-2), np.full(3, 1e-6), np.full(3, 1e-2)])
+    assert _diverged(healthy) is None
+    broken = healthy.copy()
+    broken[7, 7] = -1e-4                  # the elbow joint's variance
+    assert _diverged(broken) == "negative variance of a position"
+    assert _diverged(broken) in DIVERGENCE_REASONS
+    huge = healthy.copy()
+    huge[0, 0] = 4.0                      # a 2 rad standard deviation of the shoulder motor
+    assert _diverged(huge) == "covariance beyond COVARIANCE_LIMIT"
+    np.testing.assert_array_equal(_lost(broken[6:9, 6:9]), np.diag(LOST_SPREAD ** 2))
+    small = _lost(healthy[6:9, 6:9])
+    np.testing.assert_allclose(np.sqrt(np.diagonal(small)), LOST_SPREAD)

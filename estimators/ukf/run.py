@@ -68,7 +68,8 @@ SPEED_MARGIN = 0.10
 COVARIANCE_LIMIT = np.array([1.0, 1.0, 0.1])
 """Largest standard deviation of a motor coordinate or joint position (rad, rad, m) before the
 filter counts as diverged: beyond it the estimate says nothing about the arm's pose."""
-DIVERGENCE_REASONS = ("non-finite prediction", "covariance beyond COVARIANCE_LIMIT")
+DIVERGENCE_REASONS = ("non-finite prediction", "covariance beyond COVARIANCE_LIMIT",
+                      "negative variance of a position")
 """Re-initialisation reasons that mean the filter diverged (rather than lost its readings)."""
 LOST_SPREAD = np.array([0.5, 0.5, 0.05])
 """Smallest joint standard deviation (rad, rad, m) reported while the filter has lost the arm (no
@@ -280,15 +281,29 @@ def check_log_rate(time: np.ndarray) -> float:
     return period
 
 
-def _diverged(P: np.ndarray) -> bool:
+def _diverged(P: np.ndarray) -> str | None:
+    """Why the state covariance ``P`` no longer describes the arm, or None while it does.
+
+    A motor or joint position's variance beyond ``COVARIANCE_LIMIT`` says nothing about the pose;
+    a negative one (the unscented update of a covariance that grew far beyond the sigma points'
+    reach) is not a covariance at all.
+    """
     spread = np.diagonal(P)
-    return bool(not np.all(np.isfinite(P)) or np.any(spread[:3] > COVARIANCE_LIMIT ** 2)
-                or np.any(spread[6:9] > COVARIANCE_LIMIT ** 2))
+    positions = np.r_[spread[:3], spread[6:9]]
+    if not np.all(np.isfinite(P)) or np.any(positions > np.tile(COVARIANCE_LIMIT ** 2, 2)):
+        return "covariance beyond COVARIANCE_LIMIT"
+    if np.any(positions < 0.0):
+        return "negative variance of a position"
+    return None
 
 
 def _lost(joint_covariance: np.ndarray) -> np.ndarray:
-    """The joint covariance with each standard deviation raised to at least ``LOST_SPREAD``."""
-    spread = np.sqrt(np.diagonal(joint_covariance))
+    """The joint covariance with each standard deviation raised to at least ``LOST_SPREAD``
+    (``LOST_SPREAD`` alone when the covariance has stopped being one)."""
+    variance = np.diagonal(joint_covariance)
+    if not (np.all(np.isfinite(joint_covariance)) and np.all(variance > 0.0)):
+        return np.diag(LOST_SPREAD ** 2)
+    spread = np.sqrt(variance)
     scale = np.maximum(LOST_SPREAD / spread, 1.0)
     return joint_covariance * scale[:, None] * scale[None, :]
 
@@ -438,11 +453,11 @@ def run_filter(log: MotorLog, model: CableModel, process_noise: ProcessNoise, me
                     log_likelihood += ukf.innovation_log_likelihood(threshold)
         if usable and run >= settings.max_rejections:
             reinitialise(k, f"{run} readings rejected in a row")
-        elif _diverged(ukf.P):
+        elif (diverged := _diverged(ukf.P)) is not None:
             if usable:
-                reinitialise(k, "covariance beyond COVARIANCE_LIMIT")
+                reinitialise(k, diverged)
             else:
-                pending = "covariance beyond COVARIANCE_LIMIT"
+                pending = diverged
                 record(k, lost=True)
                 continue
         elif blind > settings.max_gap:
