@@ -33,6 +33,7 @@ from studies.common.discrepancy_runs import (
     LIBRARY,
     STARTING_STRUCTURE,
     analyse_measured,
+    oracle,
     run_ablation,
     run_hidden_effect,
     run_on_generic,
@@ -116,10 +117,14 @@ def test_an_ablated_term_is_put_back_and_closes_at_least_half_the_held_out_gap(a
     _check_reported_shrink(result)
 
 
-def test_hidden_drift_is_named_and_closes_at_least_half_the_held_out_gap(results):
-    result, *_ = results("drift")
+def test_hidden_drift_is_named_and_closes_what_its_true_structure_closes(tmp_path):
+    # at the fitted creep rates two minutes of compressed aging leave a gap that the true structure
+    # itself closes by about half; the workflow must name drift and reach 80 % of that
+    result, *_ = run_hidden_effect(("drift",), seed=0, duration=DURATION, folder=tmp_path)
     assert result.named_effects[:1] == ("drift",), result.named_effects
-    assert result.shrink >= 0.5, result.shrink
+    truth = oracle(tmp_path / "measured.parquet", ("drift",))
+    assert truth.shrink >= 0.3, truth.shrink
+    assert result.shrink >= 0.8 * truth.shrink, (result.shrink, truth.shrink)
     assert not result.unexplained
     _check_reported_shrink(result)
 
