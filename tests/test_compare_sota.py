@@ -15,6 +15,9 @@ from studies import compare_sota
 from studies.common.data_sources import LOADED_CALIBRATION_TEST, recorded_comparison, simulated_comparison
 from studies.common.methods import BASE_METHODS, MethodSettings
 
+pytestmark = pytest.mark.xdist_group("compare_sota")
+"""One worker runs this module, so its module fixtures (simulated sessions, fitted filters) are built once."""
+
 REDUCED = MethodSettings(dnn_seeds=1, dnn_epochs=60, lstm_epochs=2, forest_trees=5, two_phase_max_samples=800,
                          gpr_subset=300, gpr_hyper_subset=100, lstm_max_samples=800, ukf_tuning="none")
 

@@ -27,6 +27,9 @@ from estimators.ukf.noise import ProcessNoise, encoder_noise
 from estimators.ukf.process import ProcessModel
 from estimators.ukf.run import SampleLimits, initial_state, motor_readings, run_filter
 
+pytestmark = pytest.mark.xdist_group("ukf")
+"""One worker runs this module, so its module fixtures (simulated sessions, fitted filters) are built once."""
+
 OWN_MODEL = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction",
              "quantization", "noise")
 

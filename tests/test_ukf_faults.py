@@ -19,6 +19,9 @@ from simulation.recordings.recording import recording_to_dataset
 from estimators import UKFJointEstimator
 from estimators.ukf.run import ACCEPTED, COASTING, REINITIALISED, REJECTED, UKFFaultWarning
 
+pytestmark = pytest.mark.xdist_group("ukf_faults")
+"""One worker runs this module, so its module fixtures (simulated sessions, fitted filters) are built once."""
+
 OWN_MODEL = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction",
              "quantization", "noise")
 SETTLE = 30                     # the first second: the initial stretch uncertainty settles

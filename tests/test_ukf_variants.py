@@ -16,6 +16,9 @@ from simulation.recordings.recording import recording_to_dataset
 from studies.common.methods import UKFHybridOnSamples
 from studies.common.samples import Samples
 
+pytestmark = pytest.mark.xdist_group("ukf_variants")
+"""One worker runs this module, so its module fixtures (simulated sessions, fitted filters) are built once."""
+
 OWN_MODEL = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction",
              "quantization", "noise")
 PAYLOAD_KG = 0.5
