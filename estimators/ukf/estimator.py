@@ -280,7 +280,9 @@ class UKFJointEstimator(BaseEstimator):
         candidates, errors = [], []
         for factor in factors:
             candidate = nominal.with_effect(friction.replace(velocity_scale=friction.velocity_scale * factor))
-            trial = clone(self).set_params(base_parameters=candidate, tuning="none", verbose=0)
+            # the coasting noise only acts on missing readings; it is chosen once, for the final model
+            trial = clone(self).set_params(base_parameters=candidate, tuning="none", verbose=0,
+                                           coast_noise_scale=1.0)
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
