@@ -14,8 +14,9 @@ from typing import Callable
 
 import numpy as np
 
-from simulation.model.effects import (Backlash, CapstanRunout, CoulombFriction, Coupling, Drift, GravityStretch, Hysteresis,
-                                      TransmissionError, ViscousFriction)
+from simulation.model.effects import (Backlash, CapstanFriction, CapstanRunout, CoulombFriction, Coupling, Drift,
+                                      GravityModelError, GravityStretch, Hysteresis, MotorFriction, TransmissionError,
+                                      ViscousFriction)
 
 from simulation.discrepancy.generic import NominalModel
 from simulation.discrepancy.replay import RavenModel
@@ -58,12 +59,15 @@ class Candidate:
     blocks : the free parameters.
     build : maps (model, {block name: values}) to the model with the effect added.
     applies : whether the effect can be added to this model and data (and why not).
+    partners : effects of the model that trade with this one, refitted together with it (the
+        Coulomb force is the tension-independent part of what capstan friction adds).
     """
 
     name: str
     blocks: tuple[ParameterBlock, ...]
     build: Callable
     applies: Callable
+    partners: tuple[str, ...] = ()
 
     @property
     def n_parameters(self) -> int:
@@ -113,6 +117,18 @@ def _homing_applies(model, signals, name):
     return _not_in(model, name)
 
 
+def _not_replayable(model, signals, name):
+    return False, ("the replay drives the cables with the measured motor positions, so an error in the "
+                   "controller's gravity compensation (which moves only where the motors settle) leaves "
+                   "no residual in joints or torques")
+
+
+def _payload_applies(model, signals, name):
+    if not isinstance(model, RavenModel):
+        return False, "a payload needs the RAVEN-II kinematics"
+    return _not_in(model, name)
+
+
 def _raven_effect(effect_factory):
     def build(model, values):
         if isinstance(model, RavenModel):
@@ -142,9 +158,19 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
     homings = np.unique(signals.homing)
     extra_homings = tuple(int(h) for h in homings[1:])
 
-    def homing_build(model, values):
-        offsets = values["offset"].reshape(-1, 3)
-        return model.with_homing_offsets({c: offsets[i] for i, c in enumerate(extra_homings)})
+    def per_homing(name):
+        def build(model, values):
+            offsets = values["offset"].reshape(-1, 3)
+            return model.with_homing_offsets({c: offsets[i] for i, c in enumerate(extra_homings)}, name)
+        return build
+
+    def per_homing_candidate(name):
+        return Candidate(name, (ParameterBlock("offset", 3 * len(extra_homings), -0.1, 0.1, 1e-3, 0.0,
+                                               JOINT_UNITS * len(extra_homings)),),
+                         per_homing(name), _homing_applies)
+
+    def zeros_for_tools(values):
+        return np.concatenate([values, np.zeros(4)])
 
     return [
         Candidate("backlash", (ParameterBlock("half_width", 3, 0.0, 0.02, (1e-3, 1e-3, 5e-5), 0.0, JOINT_UNITS),),
@@ -156,7 +182,7 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
                   _raven_effect(lambda m, v: ViscousFriction(coefficient=v["coefficient"])), _raven_only),
         Candidate("hysteresis", (ParameterBlock("stiffness", 3, 0.0, 1e5, (20.0, 10.0, 1000.0), 0.0,
                                                 LOAD_PER_STRETCH_UNITS),
-                                 ParameterBlock("width", 3, 1e-6, 0.05, (3e-3, 3e-3, 2e-4), (3e-3, 3e-3, 2e-4),
+                                 ParameterBlock("width", 3, 1e-6, 0.05, (1e-2, 1e-2, 1e-3), (1e-2, 1e-2, 1e-3),
                                                 JOINT_UNITS),
                                  ParameterBlock("shape", 3, 0.0, 1.0, 0.2, 0.0, "1")),
                   _raven_effect(lambda m, v: Hysteresis(stiffness=v["stiffness"], beta=1.0 / v["width"],
@@ -172,9 +198,20 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
                   _raven_only),
         Candidate("transmission_error", (ParameterBlock("ratio_error", 3, -0.1, 0.1, 1e-3, 0.0, "1"),),
                   _raven_effect(lambda m, v: TransmissionError(ratio_error=v["ratio_error"])), _raven_only),
-        Candidate("homing_offset", (ParameterBlock("offset", 3 * len(extra_homings), -0.1, 0.1, 1e-3, 0.0,
-                                                   JOINT_UNITS * len(extra_homings)),),
-                  homing_build, _homing_applies),
+        per_homing_candidate("homing_offset"),
+        per_homing_candidate("registration_offset"),
+        Candidate("motor_friction", (ParameterBlock("coulomb", 3, 0.0, 0.1, 1e-3, 0.0, "N m"),
+                                     ParameterBlock("gearbox_loss", 3, 0.0, 1.0, 0.1, 0.0, "1")),
+                  _raven_effect(lambda m, v: MotorFriction(coulomb=zeros_for_tools(v["coulomb"]),
+                                                           gearbox_loss=zeros_for_tools(v["gearbox_loss"]))),
+                  _raven_only),
+        Candidate("capstan_friction", (ParameterBlock("coefficient", 3, 0.0, 0.5, 0.05, 0.0, "1"),),
+                  _raven_effect(lambda m, v: CapstanFriction(mu=v["coefficient"], wrap_angle=np.ones(3))),
+                  _raven_only, partners=("coulomb_friction",)),
+        Candidate("gravity_model_error", (ParameterBlock("scale_error", 3, -0.5, 0.5, 0.05, 0.0, "1"),),
+                  _raven_effect(lambda m, v: GravityModelError(scale_error=v["scale_error"])), _not_replayable),
+        Candidate("payload", (ParameterBlock("mass", 1, 0.0, 3.0, 0.1, 0.0, "kg"),),
+                  lambda m, v: m.with_payload(float(v["mass"][0])), _payload_applies),
     ]
 
 
@@ -206,10 +243,13 @@ def generic_candidates(signals: MeasuredSignals) -> list[Candidate]:
         Candidate("viscous_friction", (ParameterBlock("lag_per_speed", j, -10.0, 10.0, 0.1, 0.0, per_speed),),
                   _generic("viscous_friction"), _any),
         Candidate("hysteresis", (ParameterBlock("amplitude", j, -0.5 * span, 0.5 * span, 1e-2, 0.0, joint),
-                                 ParameterBlock("width", j, 1e-4, span, 0.05, 0.05, joint)), _generic("hysteresis"), _any),
+                                 ParameterBlock("width", j, 1e-4, span, 0.05, 0.05, joint),
+                                 ParameterBlock("shape", j, 0.0, 1.0, 0.2, 0.0, "1")), _generic("hysteresis"), _any),
         Candidate("coupling", (ParameterBlock("matrix", j * (j - 1), -1.0, 1.0, 0.05, 0.0, pairs),),
                   _generic("coupling"), _any),
         Candidate("drift", (ParameterBlock("creep", j, -0.1, 0.1, 1e-3, 0.0, travel),), _generic("drift"), _any),
+        Candidate("transmission_error", (ParameterBlock("ratio_error", j, -0.5, 0.5, 1e-2, 0.0, "1"),),
+                  _generic("transmission_error"), _any),
     ]
 
 
@@ -218,13 +258,15 @@ def library(signals: MeasuredSignals) -> list[Candidate]:
     return raven_candidates(signals) if signals.kind == "raven" else generic_candidates(signals)
 
 
-RAVEN_LIBRARY = ("backlash", "hysteresis", "drift", "homing_offset", "transmission_error")
+RAVEN_LIBRARY = ("backlash", "hysteresis", "drift", "homing_offset", "registration_offset", "transmission_error",
+                 "motor_friction", "capstan_friction", "gravity_model_error", "payload")
 """The candidates the workflow screens on every RAVEN-II input, whatever the data: effects that the
 starting structure (the identified cable model of
 :data:`studies.common.discrepancy_runs.STARTING_STRUCTURE`) does not hold."""
 
 LIBRARY_NAMES = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "gravity_stretch", "coupling",
-                 "drift", "homing_offset", "transmission_error")
+                 "drift", "homing_offset", "registration_offset", "transmission_error", "motor_friction",
+                 "capstan_friction", "gravity_model_error", "payload")
 """Effect names the workflow can name. The simulator has more (``capstan_runout``), which the
 library deliberately lacks: a residual they cause is reported as unexplained."""
 

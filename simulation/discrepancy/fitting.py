@@ -58,6 +58,10 @@ def residual(model, signals: MeasuredSignals, robot=None, offsets: np.ndarray | 
     hysteresis, fatigue) continuous across the fit, validation and held-out parts. Offsets are
     fitted on the masked samples unless given.
     """
+    if mask is not None:
+        # the replay is causal: samples after the last one asked for change nothing before it
+        n = int(np.flatnonzero(mask)[-1]) + 1 if np.any(mask) else len(signals)
+        signals, mask = signals.head(n), mask[:n]
     state = model.replay(signals, robot)
     mask = slice(None) if mask is None else mask
     joints = (signals.truth - state.joints)[mask]

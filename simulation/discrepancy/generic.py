@@ -15,7 +15,8 @@ import numpy as np
 from simulation.discrepancy.replay import ReplayState, bouc_wen_series, play_series
 from simulation.discrepancy.signals import MeasuredSignals
 
-GENERIC_EFFECTS = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "coupling", "drift")
+GENERIC_EFFECTS = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "coupling", "drift",
+                   "transmission_error")
 
 
 def velocity_scale(signals: MeasuredSignals) -> np.ndarray:
@@ -30,16 +31,19 @@ def generic_contribution(name: str, values: dict, signals: MeasuredSignals) -> n
     n_joints = signals.n_joints
     if name == "backlash":
         half = values["half_width"]
-        return np.column_stack([play_series(np.ascontiguousarray(reported[:, j]), half[j]) - reported[:, j]
+        return np.column_stack([play_series(np.ascontiguousarray(reported[:, j]), half[j], signals.restarts)
+                                - reported[:, j]
                                 for j in range(n_joints)])
     if name == "coulomb_friction":
         return -values["lag"] * np.tanh(signals.drive_velocity / velocity_scale(signals))
     if name == "viscous_friction":
         return -values["lag_per_speed"] * signals.drive_velocity
     if name == "hysteresis":
+        # Bouc-Wen with beta = 1 / width and gamma = shape / width, both fitted
         width = values["width"]
+        shape = values["shape"]
         z = np.column_stack([bouc_wen_series(np.ascontiguousarray(signals.drive_velocity[:, j]), signals.time,
-                                             0.7 / width[j], 0.3 / width[j]) for j in range(n_joints)])
+                                             1.0 / width[j], shape[j] / width[j]) for j in range(n_joints)])
         return -values["amplitude"] * z / width
     if name == "coupling":
         # off-diagonal terms only: how much each joint moves with the others
@@ -48,6 +52,9 @@ def generic_contribution(name: str, values: dict, signals: MeasuredSignals) -> n
         return reported @ matrix.T
     if name == "drift":
         return -values["creep"] * signals.cumulative_motion()
+    if name == "transmission_error":
+        # the joint moves (1 + ratio_error) times what the controller reports
+        return values["ratio_error"] * reported
     raise ValueError(f"effect {name!r} has no generic form; generic effects: {GENERIC_EFFECTS}")
 
 

@@ -18,7 +18,7 @@ that look alike in the joints apart.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
@@ -40,12 +40,20 @@ from simulation.model.parameters import RavenParameters
 from simulation.discrepancy.signals import MeasuredSignals
 
 
+MOTOR_STICTION_SPEED = np.array([1e-3, 1e-3, 1e-4])
+"""Drive speed (rad/s, rad/s, m/s in joint units) below which the replay's motor friction fades
+linearly to zero (``tanh(v / speed)``): a round tenth of a degree per second and a tenth of a
+millimetre per second, where the motor's stick-slip cannot be followed in a 30 Hz log."""
+
+
 @njit(cache=True)
-def play_series(position: np.ndarray, half_width: float) -> np.ndarray:
-    """Backlash operator over a time series, starting centred (output = input)."""
+def play_series(position: np.ndarray, half_width: float, restart: np.ndarray) -> np.ndarray:
+    """Backlash operator over a time series, starting centred (output = input) at every ``restart``."""
     out = np.empty_like(position)
     state = position[0]
     for n in range(position.shape[0]):
+        if restart[n]:
+            state = position[n]
         state = play(position[n], state, half_width)
         out[n] = state
     return out
@@ -109,28 +117,40 @@ def _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, s
 
 @njit(cache=True)
 def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma, time,
-                      start):
+                      start, restart, capstan=0.0):
     """Link position of one joint hanging on its cable, sample by sample.
 
     The link stays put while the cable's tension (elastic ``k x0 sinh(s/x0)`` divided by the
     fatigue ``softening``, plus the hysteretic ``hysteresis_stiffness * z``) balances the load
-    within the dry friction; otherwise it moves until the tension equals load plus or minus the
+    within the dry friction: ``dry`` (one bound per sample) plus, with a ``capstan`` coefficient,
+    the pulley friction ``capstan * |T|`` of the tension ``T`` that moves the link, solved for
+    ``T`` (so moving against the load costs more than moving with it); otherwise it moves until the tension equals load plus or minus the
     friction, solved implicitly because the hysteretic tension changes with the stretch (Bouc-Wen)
     and may be stiffer than the cable itself. Friction and hysteresis thus interact as they do in
-    the simulator. Returns the link positions and the hysteresis state.
+    the simulator. ``start`` (N,) are the measured link positions the series (re)starts from at
+    the samples where ``restart`` holds (the first, and the first after each re-homing, where the
+    encoders were re-registered). Returns the link positions and the hysteresis state.
     """
     n = base.shape[0]
     link = np.empty(n)
     zs = np.zeros(n)
-    state = start
+    state = start[0]
     z = 0.0
-    previous = base[0] - start
+    previous = base[0] - start[0]
     for k in range(n):
+        if restart[k]:
+            state = start[k]
+            z = 0.0
+            previous = base[k] - state
         stretch = base[k] - state
         z_stick = _bouc_wen_after(z, stretch - previous, beta, gamma)
         tension = stiffness_tension(stretch, stiffness, hardening) / softening[k] + hysteresis_stiffness * z_stick
-        high = load[k] + dry
-        low = load[k] - dry
+        high = load[k] + dry[k]
+        low = load[k] - dry[k]
+        if capstan > 0.0:
+            # T = load +- (dry + capstan |T|), solved for T on each side
+            high = high / (1.0 - capstan) if high > 0.0 else high / (1.0 + capstan)
+            low = low / (1.0 + capstan) if low > 0.0 else low / (1.0 - capstan)
         if tension > high or tension < low:
             target = high if tension > high else low
             if hysteresis_stiffness == 0.0:
@@ -183,27 +203,47 @@ class RavenModel:
     """The cable model of a RAVEN-II parameter set plus the session's registration offsets.
 
     ``offsets`` (3,) are added to every predicted joint; ``homing_offsets`` maps a homing count to
-    extra offsets of the samples recorded after that homing.
+    extra offsets of the samples recorded after that homing, under the effect name
+    ``homing_offset_name`` (``homing_offset`` or ``registration_offset``: in a log both are a
+    constant per homing). ``payload_kg`` is a payload at the tool tip that the log does not
+    declare (kg), added to the one it does.
     """
 
     params: RavenParameters
     offsets: np.ndarray
     homing_offsets: dict | None = None
+    homing_offset_name: str = "homing_offset"
+    payload_kg: float = 0.0
 
     @property
     def enabled_effects(self) -> tuple[str, ...]:
         names = self.params.enabled_effects
-        return names + (("homing_offset",) if self.homing_offsets else ())
+        if self.homing_offsets:
+            names = names + (self.homing_offset_name,)
+        return names + (("payload",) if self.payload_kg != 0.0 else ())
 
     def with_effect(self, effect) -> "RavenModel":
         """The model with ``effect`` (an :class:`~simulation.model.effects.Effect`) added or replaced."""
-        return RavenModel(self.params.with_effect(effect), self.offsets, self.homing_offsets)
+        return replace(self, params=self.params.with_effect(effect))
 
     def with_offsets(self, offsets) -> "RavenModel":
-        return RavenModel(self.params, np.asarray(offsets, dtype=float), self.homing_offsets)
+        return replace(self, offsets=np.asarray(offsets, dtype=float))
 
-    def with_homing_offsets(self, homing_offsets: dict) -> "RavenModel":
-        return RavenModel(self.params, self.offsets, homing_offsets)
+    def with_homing_offsets(self, homing_offsets: dict | None, name: str | None = None) -> "RavenModel":
+        return replace(self, homing_offsets=homing_offsets, homing_offset_name=name or self.homing_offset_name)
+
+    def with_payload(self, payload_kg: float) -> "RavenModel":
+        """The model with an undeclared payload of ``payload_kg`` at the tool tip."""
+        return replace(self, payload_kg=float(payload_kg))
+
+    def without_extras(self, names) -> "RavenModel":
+        """The model without the effects ``names`` (simulator effects, per-homing offsets, payload)."""
+        model = replace(self, params=self.params.without(*[n for n in names if n in self.params.enabled_effects]))
+        if self.homing_offset_name in names:
+            model = replace(model, homing_offsets=None)
+        if "payload" in names:
+            model = replace(model, payload_kg=0.0)
+        return model
 
     def replay(self, signals: MeasuredSignals, robot=None) -> ReplayState:
         from kinematics import RavenII
@@ -223,16 +263,23 @@ class RavenModel:
         side = cable.copy()
         if p.is_enabled("backlash"):
             half = p.effect("backlash").half_width
-            side = np.column_stack([play_series(np.ascontiguousarray(cable[:, i]), half[i]) for i in range(3)])
+            side = np.column_stack([play_series(np.ascontiguousarray(cable[:, i]), half[i], signals.restarts)
+                                    for i in range(3)])
 
         velocity = signals.velocity
         gravity, inertial = signals.link_loads(robot)
+        if self.payload_kg != 0.0:
+            gravity_per_kg, inertial_per_kg = signals.payload_loads(robot)
+            gravity = gravity + self.payload_kg * gravity_per_kg
+            inertial = inertial + self.payload_kg * inertial_per_kg
         load = inertial.copy()
         if p.is_enabled("gravity_stretch"):
             load = load + gravity_load(gravity, p.effect("gravity_stretch").load_scale)
         if p.is_enabled("viscous_friction"):
             load = load + p.effect("viscous_friction").coefficient * velocity
-        dry = p.effect("coulomb_friction").force if p.is_enabled("coulomb_friction") else np.zeros(3)
+        dry = np.broadcast_to(p.effect("coulomb_friction").force if p.is_enabled("coulomb_friction") else np.zeros(3),
+                              u.shape).copy()
+        capstan = p.effect("capstan_friction").coefficient if p.is_enabled("capstan_friction") else np.zeros(3)
 
         creep = np.zeros_like(u)
         softening = np.ones_like(u)
@@ -243,7 +290,10 @@ class RavenModel:
             softening = 1.0 + d.stiffness_loss * dose
 
         base = side - creep
-        first = signals.truth[0] - self.offsets
+        first = signals.truth - self.offsets
+        if self.homing_offsets:
+            for count, extra in self.homing_offsets.items():
+                first[signals.homing == count] -= extra
         if p.is_enabled("cable_stretch"):
             law = p.effect("cable_stretch")
             hyst = p.effect("hysteresis")
@@ -254,9 +304,10 @@ class RavenModel:
             z = np.empty_like(u)
             for i in range(3):
                 link[:, i], z[:, i] = cable_link_series(
-                    np.ascontiguousarray(base[:, i]), np.ascontiguousarray(load[:, i]), dry[i],
+                    np.ascontiguousarray(base[:, i]), np.ascontiguousarray(load[:, i]), np.ascontiguousarray(dry[:, i]),
                     np.ascontiguousarray(softening[:, i]), law.stiffness[i], law.hardening[i], k_h[i],
-                    beta[i], gamma[i], signals.time, first[i])
+                    beta[i], gamma[i], signals.time, np.ascontiguousarray(first[:, i]), signals.restarts,
+                    capstan[i])
             stretch = base - link
             tension = np.column_stack([cable_tension_curve(stretch[:, i], law.stiffness[i], law.hardening[i])
                                        for i in range(3)]) / softening + k_h * z
@@ -266,6 +317,7 @@ class RavenModel:
             link = base
             stretch = np.zeros_like(u)
             tension = load + dry * np.sign(velocity)
+            tension = tension + capstan * np.abs(tension) * np.sign(velocity)
             compliance = np.zeros_like(u)
 
         if p.is_enabled("transmission_error"):
@@ -283,6 +335,11 @@ class RavenModel:
         inertia = c.motor_inertia[:3] * ratio ** 2
         damping = c.motor_damping[:3] * ratio ** 2
         motor_side = tension @ a + inertia * signals.drive_acceleration + damping * signals.drive_velocity
+        if p.is_enabled("motor_friction"):
+            # the amplifier's torque also overcomes the motor's and gearbox's friction (joint units)
+            friction = p.effect("motor_friction")
+            bound = friction.coulomb[:3] * ratio + friction.gearbox_loss[:3] * np.abs(tension @ a)
+            motor_side = motor_side + bound * np.tanh(signals.drive_velocity / MOTOR_STICTION_SPEED)
         torque = motor_side * gear / ratio
         torque_map = a.T * (gear / ratio)[:, None]
         return ReplayState(joints=joints, torque=torque, compliance=compliance, tension=tension, stretch=stretch,

@@ -49,6 +49,16 @@ def _causal_derivative(values: np.ndarray, time: np.ndarray, window: int, order:
     return np.einsum("nw,njw->nj", slope_weights, windows_v)
 
 
+def _per_homing(derivative, values: np.ndarray, time: np.ndarray, homing: np.ndarray, *args) -> np.ndarray:
+    """``derivative`` of each stretch of samples of one homing on its own: a re-homing re-registers
+    the encoders, so the motor positions jump there and no derivative may span it."""
+    starts = np.flatnonzero(np.r_[True, homing[1:] != homing[:-1]])
+    if starts.size == 1:
+        return derivative(values, time, *args)
+    ends = np.r_[starts[1:], homing.size]
+    return np.concatenate([derivative(values[a:b], time[a:b], *args) for a, b in zip(starts, ends)])
+
+
 @dataclass(frozen=True, eq=False)
 class MeasuredSignals:
     """Time-ordered measurements of one or more joints, SI units.
@@ -116,6 +126,12 @@ class MeasuredSignals:
     def __len__(self) -> int:
         return self.time.shape[0]
 
+    @cached_property
+    def restarts(self) -> np.ndarray:
+        """(N,) True at the first sample and at the first sample after each re-homing, where the
+        replay restarts its history-dependent states from the measured joints."""
+        return np.r_[True, self.homing[1:] != self.homing[:-1]]
+
     @property
     def n_joints(self) -> int:
         return len(self.joint_names)
@@ -126,7 +142,7 @@ class MeasuredSignals:
     def velocity(self) -> np.ndarray:
         """Joint velocity from the measured positions (rad/s, m/s), causal: each sample's velocity
         uses that sample and the ``smoothing - 1`` before it (see :func:`_causal_derivative`)."""
-        return _causal_derivative(self.truth, self.time, self.smoothing)
+        return _per_homing(_causal_derivative, self.truth, self.time, self.homing, self.smoothing)
 
     @cached_property
     def acceleration(self) -> np.ndarray:
@@ -134,17 +150,17 @@ class MeasuredSignals:
         and the ``ACCELERATION_WINDOW - 1`` samples before it (causal; a second lag-free derivative
         would double the encoders' noise in the inertial loads, which matters more than its lag of
         about a tenth of a second at 30 Hz)."""
-        return _causal_derivative(self.velocity, self.time, ACCELERATION_WINDOW, order=1)
+        return _per_homing(_causal_derivative, self.velocity, self.time, self.homing, ACCELERATION_WINDOW, 1)
 
     @cached_property
     def drive_velocity(self) -> np.ndarray:
         """Velocity of the transmission's input (joint units per s), causal like :attr:`velocity`."""
-        return _causal_derivative(self.drive, self.time, self.smoothing)
+        return _per_homing(_causal_derivative, self.drive, self.time, self.homing, self.smoothing)
 
     @cached_property
     def drive_acceleration(self) -> np.ndarray:
         """Acceleration of the transmission's input, causal like :attr:`acceleration`."""
-        return _causal_derivative(self.drive_velocity, self.time, ACCELERATION_WINDOW, order=1)
+        return _per_homing(_causal_derivative, self.drive_velocity, self.time, self.homing, ACCELERATION_WINDOW, 1)
 
     def cumulative_motion(self, per_kg: float = 0.0) -> np.ndarray:
         """Accumulated joint travel since the start of the record (rad, rad, m), optionally load-weighted.
@@ -172,6 +188,44 @@ class MeasuredSignals:
                 inertial[rows] = np.einsum("nij,nj->ni", mass, self.acceleration[rows])
             cache[key] = (gravity, inertial)
         return cache[key]
+
+    def payload_loads(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """Gravity and inertial loads of one more kilogram at the tool tip (per kg; cached).
+
+        The loads of a point payload are linear in its mass, so these increments price any payload
+        the log does not declare: ``link_loads + m * payload_loads``.
+        """
+        cache = self.__dict__.setdefault("_payload_loads", {})
+        key = (robot.arm, tuple(np.round(robot.gravity, 12)))
+        if key not in cache:
+            q6 = np.column_stack([self.truth, self.tool_joints])
+            gravity, inertial = self.link_loads(robot)
+            heavier_gravity = np.zeros_like(self.truth)
+            heavier_inertial = np.zeros_like(self.truth)
+            for payload in np.unique(self.payload_kg):
+                rows = self.payload_kg == payload
+                heavier_gravity[rows] = robot.gravity_torques(q6[rows], payload_kg=float(payload) + 1.0)
+                mass = robot.mass_matrix(q6[rows], payload_kg=float(payload) + 1.0)
+                heavier_inertial[rows] = np.einsum("nij,nj->ni", mass, self.acceleration[rows])
+            cache[key] = (heavier_gravity - gravity, heavier_inertial - inertial)
+        return cache[key]
+
+    def head(self, n: int) -> "MeasuredSignals":
+        """The first ``n`` samples (cached), with this record's derivatives and loads: every
+        derivative is causal, so the first samples' values do not depend on what follows, and a
+        replay of the head equals the head of the replay."""
+        if n >= len(self):
+            return self
+        heads = self.__dict__.setdefault("_heads", {})
+        if n not in heads:
+            head = self.select(np.arange(len(self)) < n)
+            for name in ("velocity", "acceleration", "drive_velocity", "drive_acceleration", "restarts"):
+                head.__dict__[name] = getattr(self, name)[:n]
+            for cache in ("_loads", "_payload_loads"):
+                if cache in self.__dict__:
+                    head.__dict__[cache] = {k: tuple(v[:n] for v in value) for k, value in self.__dict__[cache].items()}
+            heads[n] = head
+        return heads[n]
 
     def select(self, mask: np.ndarray) -> "MeasuredSignals":
         """The samples where ``mask`` holds (keep blocks contiguous: derivatives are recomputed)."""

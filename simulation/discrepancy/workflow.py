@@ -48,7 +48,11 @@ class WorkflowSettings:
     min_shrink : a candidate is named only if it cuts the validation gap (pooled RMSE, degrees and
         millimetres) by at least this fraction, and the gap on the fit part too: an effect that is
         there helps both where it was fitted and where it is checked, while a look-alike of an
-        effect the library lacks may help on the validation part by chance only.
+        effect the library lacks may help on the validation part by chance only. An effect that
+        shows only in the motor torques (motor friction: the replay takes the motor positions as
+        measured) may instead cut the torque gap (RMS of the torque residual, each joint over its
+        typical size) by this fraction on both parts, provided the joint gap grows by less than
+        ``min_improvement``.
     min_improvement : ... and by at least this much in absolute terms (deg/mm pooled): below it
         the gap is at the level of the data's own noise.
     unexplained_floor : a final validation gap above this (deg/mm pooled) is flagged unexplained
@@ -60,9 +64,12 @@ class WorkflowSettings:
     refit_with : effects of the model refitted together with each candidate outside the identifier's
         reach: the joint-side friction, which an identification without the missing effect uses to
         mimic it (backlash and hysteresis also lag the joint behind the motion).
-    backfit_rounds : with a base identifier, how many times a candidate outside the identifier's
-        reach is fitted and the base re-identified on the joints with the candidate's share
-        removed (the base otherwise keeps the part of the missing effect it absorbed).
+    backfit_rounds : with a base identifier, at most how many times a candidate outside the
+        identifier's reach is fitted and the base re-identified on the joints and torques with the
+        candidate's share removed (the base otherwise keeps the part of the missing effect it
+        absorbed: motor friction in the torques bends every identified cable parameter).
+    backfit_tolerance : the rounds stop when one lowers the fit part's weighted residual by less
+        than this fraction (or raises it: that round is discarded).
     accept_all : add the best fitted candidate of every iteration whatever it scores. Not for
         discovery: it fits a structure known in advance (the oracle of a study that generated the
         data, given exactly the generator's effects as candidates) by the workflow's own steps.
@@ -75,7 +82,8 @@ class WorkflowSettings:
     screen_top: int = 2
     bic_weight: float = 1.0
     refit_with: tuple[str, ...] = ()
-    backfit_rounds: int = 1
+    backfit_rounds: int = 6
+    backfit_tolerance: float = 0.01
     accept_all: bool = False
 
 
@@ -90,6 +98,8 @@ class CandidateScore:
     validation_gap: float
     bic: float
     fit_gap: float = np.nan
+    torque_gap: float = np.nan
+    fit_torque_gap: float = np.nan
 
 
 @dataclass(frozen=True)
@@ -102,6 +112,9 @@ class Iteration:
     named: str | None
     fit_gap_before: float = np.nan
     bic_before: float = np.nan
+    torque_gap_before: float = np.nan
+    fit_torque_gap_before: float = np.nan
+    equivalent: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -114,6 +127,10 @@ class DiscrepancyResult:
     model leaves unexplained on the fit and validation parts, strongest first (empty when
     nothing is unexplained; :func:`~simulation.discrepancy.signature.describe_residual`).
     ``parameter_units`` gives the SI unit of each fitted parameter value, like ``fitted_parameters``.
+    ``torque_gap_before``/``torque_gap_after`` are the held-out RMS of the motor-torque residual
+    per joint (N m, N m, N at the gearbox output), None without torques. ``equivalent`` maps a
+    named effect to the candidates that fitted the data exactly as well (the same residual, e.g. two
+    kinds of per-homing offset): the data cannot tell them apart.
     """
 
     named_effects: tuple[str, ...]
@@ -132,13 +149,16 @@ class DiscrepancyResult:
     library: tuple[str, ...] = ()
     signature: tuple[str, ...] = ()
     parameter_units: dict = field(default_factory=dict)
+    torque_gap_before: np.ndarray | None = None
+    torque_gap_after: np.ndarray | None = None
+    equivalent: dict = field(default_factory=dict)
 
 
 def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights: ChannelWeights,
-            robot) -> tuple[float, np.ndarray]:
-    """Best weighted residual over a coarse scan of the candidate's parameters, one at a time, and where."""
+            robot, passes: int = 2) -> tuple[float, np.ndarray]:
+    """Best weighted residual over a coarse scan of the candidate's parameters, one at a time
+    (``passes`` sweeps over them), and where."""
     lower, upper, scale, initial = candidate.bounds()
-    theta = initial.copy()
 
     def chi(values):
         try:
@@ -146,22 +166,39 @@ def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights
         except ValueError:
             return np.inf
 
-    best = chi(theta)
-    for i in range(theta.size):
-        trial_values = [scale[i] * f for f in (0.1, 0.3, 1.0, 3.0, 10.0)]
-        if lower[i] < 0:
-            trial_values += [-v for v in trial_values]
-        for value in trial_values:
-            trial = theta.copy()
-            trial[i] = np.clip(value, lower[i], upper[i])
-            value_chi = chi(trial)
-            if value_chi < best:
-                best, theta = value_chi, trial
+    def scan(theta):
+        best = chi(theta)
+        for _ in range(passes):
+            # a second pass lets each parameter follow what the others found (a loop's width and height)
+            for i in range(theta.size):
+                trial_values = [scale[i] * f for f in (0.1, 0.3, 1.0, 3.0, 10.0)]
+                if lower[i] < 0:
+                    trial_values += [-v for v in trial_values]
+                for value in trial_values:
+                    trial = theta.copy()
+                    trial[i] = np.clip(value, lower[i], upper[i])
+                    value_chi = chi(trial)
+                    if value_chi < best:
+                        best, theta = value_chi, trial
+        return best, theta
+
+    starts = [initial.copy()]
+    if np.any(initial != 0):
+        # parameters that set a shape (a loop's width) also start a decade and a third of one lower
+        starts += [np.clip(np.where(initial != 0, initial * f, initial), lower, upper) for f in (0.1, 0.3)]
+    best, theta = min((scan(start) for start in starts), key=lambda r: r[0])
     return float(best), theta
 
 
 def _validation_gap(res: Residual, units) -> float:
     return pooled_rmse(res.joints, units)
+
+
+def _torque_gap(res: Residual, weights: ChannelWeights) -> float:
+    """RMS of the torque residual, each joint over its typical size (nan without torques)."""
+    if res.torque is None or weights.torque is None:
+        return np.nan
+    return float(np.sqrt(np.mean(np.square(res.torque / weights.torque))))
 
 
 @dataclass(frozen=True)
@@ -193,9 +230,10 @@ class Split:
 class BaseIdentifier:
     """How the workflow re-identifies the starting structure (step 0) when effects are added.
 
-    ``identify(structure, correction)`` returns a model of the effects ``structure`` identified on
-    the fit part, with ``correction`` (N, J) subtracted from the measured joints first (None: no
-    correction); ``fittable`` are the effects it can identify.
+    ``identify(structure, correction[, payload_kg])`` returns a model of the effects ``structure``
+    identified on the fit part, with ``correction`` = (joints (N, J), motor torques (N, J) or None)
+    subtracted from the measurements first (None: no correction) and ``payload_kg`` added to the
+    payload the data declare; ``fittable`` are the effects it can identify.
     """
 
     identify: Callable
@@ -208,15 +246,22 @@ def current_values_of(model, candidate: Candidate) -> np.ndarray:
     if isinstance(model, NominalModel):
         values = model.effects[candidate.name]
         return np.concatenate([np.asarray(values[b.name], dtype=float).ravel() for b in candidate.blocks])
-    if candidate.name == "homing_offset":
+    if candidate.name in ("homing_offset", "registration_offset"):
         return np.concatenate([np.asarray(v, dtype=float) for v in model.homing_offsets.values()])
+    if candidate.name == "payload":
+        return np.array([model.payload_kg])
     effect = model.params.effect(candidate.name)
     parts = []
     for block in candidate.blocks:
         if candidate.name == "hysteresis" and block.name == "width":
-            parts.append(1.0 / (effect.beta + effect.gamma))
+            parts.append(1.0 / effect.beta)
+        elif candidate.name == "hysteresis" and block.name == "shape":
+            parts.append(effect.gamma / effect.beta)
+        elif candidate.name == "capstan_friction":
+            parts.append(effect.coefficient)
         else:
-            parts.append(np.asarray(getattr(effect, block.name), dtype=float))
+            # per-joint blocks of seven-DOF effects (motor friction) hold the positioning joints
+            parts.append(np.asarray(getattr(effect, block.name), dtype=float)[:block.size])
     return np.concatenate(parts)
 
 
@@ -249,8 +294,7 @@ def _joint_candidate(parts, model) -> Candidate:
 def _without(model, names):
     """The model with the named (added) effects removed."""
     if isinstance(model, RavenModel):
-        params = model.params.without(*[n for n in names if n != "homing_offset"])
-        return RavenModel(params, model.offsets, None if "homing_offset" in names else model.homing_offsets)
+        return model.without_extras(names)
     return NominalModel(offsets=model.offsets, effects={k: v for k, v in model.effects.items() if k not in names})
 
 
@@ -259,8 +303,10 @@ def _transplant(source, target, names):
     if isinstance(target, RavenModel):
         model = target
         for name in names:
-            if name == "homing_offset":
-                model = model.with_homing_offsets(source.homing_offsets)
+            if name in ("homing_offset", "registration_offset"):
+                model = model.with_homing_offsets(source.homing_offsets, name)
+            elif name == "payload":
+                model = model.with_payload(source.payload_kg)
             else:
                 model = model.with_effect(source.params.effect(name))
         return model
@@ -315,36 +361,98 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         return [n for n in m.enabled_effects if n not in structure]
 
     def share(m, names):
-        """What the effects ``names`` add to the replayed joints over the whole record."""
-        return m.replay(signals, robot).joints - _without(m, names).replay(signals, robot).joints
+        """What the effects ``names`` add to the replayed joints and motor torques (None without
+        torques) over the whole record."""
+        with_them, without_them = m.replay(signals, robot), _without(m, names).replay(signals, robot)
+        torque = None if with_them.torque is None else with_them.torque - without_them.torque
+        return with_them.joints - without_them.joints, torque
 
     def rebase(m, new_structure, extras):
-        correction = share(m, extras) if extras else None
-        return with_fitted_offsets(_transplant(m, base.identify(new_structure, correction), extras))
+        # an undeclared payload is a load the identification itself takes; other effects' shares
+        # are removed from the measurements first
+        shared = [e for e in extras if e != "payload"]
+        correction = share(m, shared) if shared else None
+        payload = getattr(m, "payload_kg", 0.0)
+        identified = base.identify(new_structure, correction, payload) if payload else base.identify(new_structure,
+                                                                                                      correction)
+        return with_fitted_offsets(_transplant(m, identified, extras))
+
+    def profile(candidate, weights, coarse=False):
+        """A one-parameter candidate fitted by its profile: at each trial value the base structure
+        is re-identified around it (an effect the identification has absorbed, such as an
+        undeclared payload bending the identified gravity scale, helps only once the base lets go
+        of it). A coarse scan over decades of the candidate's scale, then a bounded search between
+        the best point's neighbours (skipped with ``coarse``, for screening: two decades only).
+        Returns the fit part's weighted residual, the value and the model."""
+        from scipy.optimize import minimize_scalar
+
+        lower, upper, scale, initial = (float(v[0]) for v in candidate.bounds())
+        evaluated = profile_points.setdefault(candidate.name, {})
+
+        def at(value):
+            value = float(np.clip(value, lower, upper))
+            if value not in evaluated:
+                with_it = candidate.apply(model, np.array([value]))
+                try:
+                    trial = rebase(with_it, structure, extras_of(with_it))
+                    chi = residual(trial, signals, robot, mask=split.fit).chi_square(weights)
+                except ValueError:
+                    # the base cannot take this much of the effect out (an identified scale turns negative)
+                    trial, chi = None, np.inf
+                evaluated[value] = (chi, trial)
+            return evaluated[value][0]
+
+        if coarse:
+            at(scale)
+            at(10 * scale)
+            value = min(evaluated, key=lambda v: evaluated[v][0])
+            return evaluated[value][0], np.array([value]), None
+        grid = [initial] + [scale * f for f in (0.3, 1.0, 3.0, 10.0)]
+        chis = [at(v) for v in grid]
+        order = np.argsort(grid)
+        points = np.asarray(grid)[order]
+        k = int(np.argmin(np.asarray(chis)[order]))
+        low, high = points[max(k - 1, 0)], points[min(k + 1, len(points) - 1)]
+        if high > low:
+            minimize_scalar(at, bounds=(low, high), method="bounded",
+                            options={"xatol": 0.01 * max(abs(points[k]), scale), "maxiter": 10})
+        value = min(evaluated, key=lambda v: evaluated[v][0])
+        chi, trial = evaluated[value]
+        return chi, np.array([value]), (trial if trial is not None else model)
 
     def trial_model(candidate, weights, scanned):
         nonlocal structure
         if base is not None and candidate.name in base.fittable:
             trial = rebase(model, structure + (candidate.name,), extras_of(model))
             return trial, current_values_of(trial, candidate)
-        theta, trial, _ = fit_candidate(candidate, model, signals, weights, robot, mask=split.fit, initial=scanned,
-                                        starts=1, max_iter=30)
+        if candidate.name in profile_points:
+            _, _, trial = profile(candidate, weights)
+            return trial, current_values_of(trial, candidate)
+        start = model
+        theta, trial, chi = fit_candidate(candidate, start, signals, weights, robot, mask=split.fit, initial=scanned,
+                                          starts=1, max_iter=30)
         trial = with_fitted_offsets(trial)
         # the model's friction may have stood in for the missing effect: fit them together
-        partners = [c for c in library_by_name.values() if c.name in settings.refit_with and c.name in trial.enabled_effects]
+        partners = [c for c in library_by_name.values()
+                    if c.name in settings.refit_with + candidate.partners and c.name in trial.enabled_effects]
         if partners:
             joint = _joint_candidate([candidate] + partners, trial)
-            values, trial, _ = fit_candidate(joint, trial, signals, weights, robot, mask=split.fit,
+            values, trial, chi = fit_candidate(joint, trial, signals, weights, robot, mask=split.fit,
                                              initial=current_values_of_all(trial, [candidate] + partners),
                                              starts=1, max_iter=30)
             trial = with_fitted_offsets(trial)
             theta = values[:candidate.n_parameters]
         if base is not None:
             for _ in range(settings.backfit_rounds):
-                trial = rebase(trial, structure, extras_of(trial))
-                theta, trial, _ = fit_candidate(candidate, trial, signals, weights, robot, mask=split.fit,
-                                                initial=theta, starts=1, max_iter=30)
-                trial = with_fitted_offsets(trial)
+                rebased = rebase(trial, structure, extras_of(trial))
+                new_theta, new_trial, new_chi = fit_candidate(candidate, rebased, signals, weights, robot,
+                                                              mask=split.fit, initial=theta, starts=1, max_iter=30)
+                if not new_chi < chi:
+                    break
+                improved = new_chi <= (1 - settings.backfit_tolerance) * chi
+                theta, trial, chi = new_theta, with_fitted_offsets(new_trial), new_chi
+                if not improved:
+                    break
         return trial, theta
     for iteration in range(settings.max_iterations):
         # each channel weighs by its current misfit, so what is left after an effect is named counts
@@ -354,11 +462,20 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         current_gap = _validation_gap(current_val, units)
         current_fit_gap = _validation_gap(current_fit, units)
         current_bic = current_val.chi_square(weights)
+        current_torque_gap = _torque_gap(current_val, weights)
+        current_fit_torque_gap = _torque_gap(current_fit, weights)
         applicable = [c for c in candidates if c.applies(model, signals, c.name)[0]]
-        screened = sorted(((*_screen(c, model, signals, split.fit, weights, robot), c) for c in applicable),
-                          key=lambda t: t[0])
+        profile_points = {}
+
+        def screen(c):
+            if base is None or c.n_parameters > 1 or c.name in base.fittable:
+                return _screen(c, model, signals, split.fit, weights, robot)
+            chi, value, _ = profile(c, weights, coarse=True)
+            return chi, value
+
+        screened = sorted(((*screen(c), c) for c in applicable), key=lambda t: t[0])
         scores = []
-        best = None
+        fitted = []
         bar = tqdm(total=min(len(screened), settings.screen_top), desc=f"iteration {iteration + 1}: fitting candidates",
                    disable=not progress, file=sys.stderr, leave=False)
         for rank, (chi, scanned, candidate) in enumerate(screened):
@@ -367,31 +484,49 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                 continue
             trial, theta = trial_model(candidate, weights, scanned)
             val = on(trial, split.validation)
+            fit = on(trial, split.fit)
             gap = _validation_gap(val, units)
-            fit_gap = _validation_gap(on(trial, split.fit), units)
+            fit_gap = _validation_gap(fit, units)
             bic = val.chi_square(weights) + settings.bic_weight * candidate.n_parameters * np.log(n_validation)
             values = {k: np.asarray(v).tolist() for k, v in candidate.unpack(np.asarray(theta, dtype=float)).items()}
-            scores.append(CandidateScore(candidate.name, chi, True, values, gap, bic, fit_gap))
-            if best is None or bic < best[0]:
-                best = (bic, gap, fit_gap, candidate, trial, values)
+            scores.append(CandidateScore(candidate.name, chi, True, values, gap, bic, fit_gap,
+                                         _torque_gap(val, weights), _torque_gap(fit, weights)))
+            fitted.append((bic, gap, fit_gap, candidate, trial, values))
             bar.update()
         bar.close()
         accepted = None
-        if best is not None:
-            bic, gap, fit_gap, candidate, trial, values = best
-            if settings.accept_all or (
-                    bic < current_bic and gap <= (1 - settings.min_shrink) * current_gap
-                    and fit_gap <= (1 - settings.min_shrink) * current_fit_gap
-                    and current_gap - gap >= settings.min_improvement):
+        equivalent: tuple[str, ...] = ()
+        shrink = 1 - settings.min_shrink
+
+        def explains(bic, gap, fit_gap, score):
+            explains_joints = (gap <= shrink * current_gap and fit_gap <= shrink * current_fit_gap
+                               and current_gap - gap >= settings.min_improvement)
+            explains_torques = (score.torque_gap <= shrink * current_torque_gap
+                                and score.fit_torque_gap <= shrink * current_fit_torque_gap
+                                and gap - current_gap < settings.min_improvement)
+            return bic < current_bic and (explains_joints or explains_torques)
+
+        # the lowest BIC among the candidates that explain enough (with two effects missing, the one
+        # whose fit lowers the BIC most may not yet be the one that closes the gap)
+        for bic, gap, fit_gap, candidate, trial, values in sorted(fitted, key=lambda f: f[0]):
+            score = next(s for s in scores if s.name == candidate.name)
+            if settings.accept_all or explains(bic, gap, fit_gap, score):
                 accepted = candidate.name
+                # candidates of the same form screen identically (e.g. two kinds of per-homing offset)
+                equivalent = tuple(s.name for s in scores if s.name != candidate.name
+                                   and abs(s.screened_chi_square - score.screened_chi_square)
+                                   <= 1e-9 * abs(score.screened_chi_square))
                 model = trial
                 if base is not None and candidate.name in base.fittable:
                     structure = structure + (candidate.name,)
                 named.append(candidate.name)
                 fitted_parameters[candidate.name] = values
                 parameter_units[candidate.name] = {b.name: list(b.units()) for b in candidate.blocks}
+                break
         iterations.append(Iteration(gap_before=current_gap, scores=tuple(scores), named=accepted,
-                                    fit_gap_before=current_fit_gap, bic_before=current_bic))
+                                    fit_gap_before=current_fit_gap, bic_before=current_bic,
+                                    torque_gap_before=current_torque_gap,
+                                    fit_torque_gap_before=current_fit_torque_gap, equivalent=equivalent))
         if accepted is None:
             break
 
@@ -422,4 +557,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         library=tuple(c.name for c in candidates),
         signature=signature,
         parameter_units=parameter_units,
+        torque_gap_before=None if before.torque is None else joint_rmse(before.torque),
+        torque_gap_after=None if after.torque is None else joint_rmse(after.torque),
+        equivalent={it.named: list(it.equivalent) for it in iterations if it.named and it.equivalent},
     )

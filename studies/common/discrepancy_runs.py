@@ -17,7 +17,6 @@ import numpy as np
 
 from pathlib import Path
 
-from simulation.model.effects import Backlash, CapstanRunout, Drift
 from simulation.model.parameters import RavenParameters
 
 from simulation.discrepancy import (
@@ -41,25 +40,38 @@ UNMODELLED_EFFECTS = ("capstan_runout",)
 """Simulator effects neither in the starting structure nor in the library: hiding one tests that the
 workflow reports the residual as unexplained, with a signature, rather than under a wrong name."""
 HIDDEN_CHOICES = ("none",) + LIBRARY + UNMODELLED_EFFECTS
+SESSION_EFFECTS = ("payload",)
+"""Hidden effects that are a condition of the session, not an effect of the simulator."""
 """What ``--hidden-effect`` accepts: nothing, any candidate of the library, or an unmodelled effect."""
 ABLATION_CHOICES = tuple(n for n in STARTING_STRUCTURE if n != "cable_stretch")
 """What ``--ablate`` accepts: a term of the starting structure, which the analysis then lacks."""
 MEASUREMENT_EFFECTS = ("quantization", "noise")
 """Effects of how the robot is measured, always on in generated data: they set the noise floor and
 are not structure the workflow is asked to find."""
-HIDDEN_EFFECT_SIZES = {
-    "backlash": Backlash(half_width=np.array([1.2e-3, 1.5e-3, 6e-5])),
-    "drift": Drift(time_scale=60.0),
-    "capstan_runout": CapstanRunout(amplitude=np.array([1e-3, 1e-3, 5e-5])),
+SIZE_FIELDS = {
+    "backlash": ("half_width",),
+    "hysteresis": ("stiffness",),
+    "drift": ("time_scale",),
+    "homing_offset": ("repeatability", "tool_repeatability"),
+    "registration_offset": ("repeatability",),
+    "transmission_error": ("ratio_error",),
+    "motor_friction": ("coulomb", "gearbox_loss"),
+    "capstan_friction": ("mu",),
+    "gravity_model_error": ("scale_error",),
+    "capstan_runout": ("amplitude",),
 }
-"""Hidden effects whose default size is below what minutes of data resolve are generated at these
-sizes: three times the default backlash, drift with one minute standing for an hour of aging, and
-the capstan runout of a 60 um eccentric capstan (the effect the library lacks, for the
-"unexplained" check). The other effects hide at their virtual RAVEN-II defaults."""
+"""The fields a ``size_factor`` multiplies, per hidden effect (``drift``: its time scale, so a
+minute of the record ages the cables as that many minutes of operation). Every hidden effect is
+generated at its virtual RAVEN-II default, the size its source gives, unless a study asks for
+another size explicitly; the payload's default is the paper's loaded test."""
+HIDDEN_PAYLOAD_KG = 0.5
+"""A hidden ``payload``: the paper's 500 g loaded-test mass hung at the tool tip, which the written
+log does not declare (its ``payload_kg`` label stays 0)."""
+PER_HOMING_EFFECTS = ("homing_offset", "registration_offset")
 REHOMING_AT = 0.3
-"""With a hidden ``homing_offset`` the session re-homes once, after this fraction of the motion (in
-the fit part): registration offsets differ only between homings, so a record of one homing cannot
-hold the effect. Every other record is of one homing."""
+"""With a hidden ``homing_offset`` or ``registration_offset`` the session re-homes once, after this
+fraction of the motion (in the fit part): registration offsets differ only between homings, so a
+record of one homing cannot hold the effect. Every other record is of one homing."""
 
 if set(STARTING_STRUCTURE) & set(LIBRARY + UNMODELLED_EFFECTS):
     raise ImportError("the starting structure must hold none of the candidates and no unmodelled effect")
@@ -81,39 +93,61 @@ def check_hidden(hidden) -> tuple[str, ...]:
     return hidden
 
 
-def generator_parameters(hidden=(), params: RavenParameters | None = None) -> RavenParameters:
+def scaled(effect, factor: float):
+    """``effect`` with its size fields (:data:`SIZE_FIELDS`) multiplied by ``factor``."""
+    from dataclasses import replace
+
+    return replace(effect, **{f: getattr(effect, f) * factor for f in SIZE_FIELDS[effect.name]})
+
+
+def generator_parameters(hidden=(), params: RavenParameters | None = None, size_factor: float = 1.0
+                         ) -> RavenParameters:
     """The simulator's parameters of generated data: the starting structure, the measurement
-    effects and ``hidden`` (at :data:`HIDDEN_EFFECT_SIZES` where listed), nothing else."""
+    effects and the ``hidden`` simulator effects at their defaults (times ``size_factor``), nothing else."""
     hidden = check_hidden(hidden)
-    generator = (params or RavenParameters()).only(*STARTING_STRUCTURE, *MEASUREMENT_EFFECTS, *hidden)
-    for name in hidden:
-        if name in HIDDEN_EFFECT_SIZES:
-            generator = generator.with_effect(HIDDEN_EFFECT_SIZES[name])
+    effects = [n for n in hidden if n not in SESSION_EFFECTS]
+    generator = (params or RavenParameters()).only(*STARTING_STRUCTURE, *MEASUREMENT_EFFECTS, *effects)
+    if size_factor != 1.0:
+        for name in effects:
+            generator = generator.with_effect(scaled(generator.effect(name), size_factor))
     return generator
 
 
-def generate_measured(hidden=(), seed: int = 0, duration: float = 240.0, params: RavenParameters | None = None):
+def generate_measured(hidden=(), seed: int = 0, duration: float = 240.0, params: RavenParameters | None = None,
+                      size_factor: float = 1.0):
     """Simulated "measured" data: the starting structure plus the ``hidden`` effects, nothing else.
 
     Returns the dataset (a :class:`~simulation.recordings.dataset.CalibrationDataset` of one session
-    of random motion, re-homed once at :data:`REHOMING_AT` when ``homing_offset`` is hidden) and the
-    generating parameters (for the oracle and the report only; the analysis never sees them).
+    of random motion, re-homed once at :data:`REHOMING_AT` when a per-homing offset is hidden, with
+    :data:`HIDDEN_PAYLOAD_KG` (times ``size_factor``) at the tool tip and undeclared when
+    ``payload`` is hidden) and the generating parameters (for the oracle and the report only; the
+    analysis never sees them).
     """
     from kinematics import RavenII
     from simulation.engine.scenarios import powered_on, record_random_test, rehome
+    from simulation.recordings.dataset import CalibrationDataset
     from simulation.recordings.recording import Recording, recording_to_dataset
 
     hidden = check_hidden(hidden)
-    generator = generator_parameters(hidden, params)
+    if not np.isfinite(size_factor) or size_factor <= 0:
+        raise ValueError(f"size_factor must be a positive number, got {size_factor}")
+    generator = generator_parameters(hidden, params, size_factor)
     robot = powered_on(generator, seed=seed)
-    if "homing_offset" in hidden:
+    if "payload" in hidden:
+        robot.set_payload(HIDDEN_PAYLOAD_KG * size_factor)
+    if set(hidden) & set(PER_HOMING_EFFECTS):
         first = record_random_test(robot, REHOMING_AT * duration, seed=seed + 1)
         rehome(robot)
         second = record_random_test(robot, (1 - REHOMING_AT) * duration, seed=seed + 2)
         recording = Recording.concatenate([first, second])
     else:
         recording = record_random_test(robot, duration, seed=seed + 1)
-    return recording_to_dataset(recording, RavenII(generator.arm, check_limits=False)), generator
+    dataset = recording_to_dataset(recording, RavenII(generator.arm, check_limits=False))
+    if "payload" in hidden:
+        table = dataset.table.copy()
+        table["label.payload_kg"] = 0.0
+        dataset = CalibrationDataset(table, arm=dataset.arm)
+    return dataset, generator
 
 
 def write_measured(dataset, folder) -> Path:
@@ -147,12 +181,24 @@ def identified_model(dataset, mask: np.ndarray, structure=STARTING_STRUCTURE) ->
     return RavenModel(result.parameters, np.asarray(result.offsets, dtype=float))
 
 
-def _with_truth_corrected(dataset, correction: np.ndarray):
-    """The dataset with ``correction`` (N, 3) subtracted from its ground-truth joints."""
+def _with_corrections(dataset, correction, payload_kg: float = 0.0):
+    """The dataset with ``correction`` = (joints (N, 3), torques (N, 3) or None; or None)
+    subtracted from its ground-truth joints and its motor torques (the measurements with an
+    effect's share removed), and ``payload_kg`` added to the payload it declares."""
+    from simulation.identification.motor_log import PAYLOAD_LABEL
+    from simulation.model.constants import POSITIONING_NAMES
     from simulation.recordings.dataset import TRUTH_COLUMNS, CalibrationDataset
 
     table = dataset.table.copy()
-    table.loc[:, list(TRUTH_COLUMNS)] = table[list(TRUTH_COLUMNS)].to_numpy() - correction
+    if correction is not None:
+        joints, torques = correction
+        table.loc[:, list(TRUTH_COLUMNS)] = table[list(TRUTH_COLUMNS)].to_numpy() - joints
+        if torques is not None and np.any(torques):
+            columns = [f"tau.{n}" for n in POSITIONING_NAMES]
+            table.loc[:, columns] = table[columns].to_numpy() - torques
+    if payload_kg:
+        declared = table[PAYLOAD_LABEL].to_numpy(float) if PAYLOAD_LABEL in table else np.zeros(len(table))
+        table[PAYLOAD_LABEL] = declared + payload_kg
     return CalibrationDataset(table, arm=dataset.arm)
 
 
@@ -160,8 +206,8 @@ def raven_base_identifier(dataset, fit_mask: np.ndarray, structure=STARTING_STRU
     """Step 0 and its re-runs: the identification on the fit part of ``dataset``."""
     from simulation.identification import FITTABLE_EFFECTS
 
-    def identify_structure(effects, correction):
-        data = dataset if correction is None else _with_truth_corrected(dataset, correction)
+    def identify_structure(effects, correction, payload_kg=0.0):
+        data = dataset if correction is None and not payload_kg else _with_corrections(dataset, correction, payload_kg)
         return identified_model(data, fit_mask, effects)
 
     return BaseIdentifier(identify=identify_structure, fittable=tuple(FITTABLE_EFFECTS), structure=tuple(structure))
@@ -208,7 +254,7 @@ def analyse_measured(path, *, progress: bool = False) -> tuple[DiscrepancyResult
     return run_on_raven_dataset(read_measured(path), progress=progress)
 
 
-def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=None):
+def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=None, size_factor: float = 1.0):
     """Hide ``hidden`` in generated data, write it to ``folder/measured.parquet`` (a temporary folder
     by default) and analyse that file blind (:func:`analyse_measured`).
 
@@ -216,7 +262,7 @@ def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=
     """
     import tempfile
 
-    dataset, generator = generate_measured(hidden, seed, duration)
+    dataset, generator = generate_measured(hidden, seed, duration, size_factor=size_factor)
     if folder is None:
         with tempfile.TemporaryDirectory() as tmp:
             result, signals, split = analyse_measured(write_measured(dataset, tmp))
@@ -264,21 +310,30 @@ def oracle(path, hidden) -> DiscrepancyResult:
     return run_workflow(model, signals, split, settings, candidates=raven_library(signals, hidden), base=base)
 
 
-def true_values(generator: RavenParameters, name: str) -> dict | None:
+def true_values(generator: RavenParameters, name: str, payload_kg: float = 0.0) -> dict | None:
     """The generator's values of effect ``name`` in its candidate's parameters (for reports after the
-    analysis), or None where the generator holds no single value (registration offsets are drawn
-    anew at each homing)."""
-    if name == "homing_offset" or not generator.is_enabled(name):
+    analysis), or None where the generator holds no single value (per-homing offsets are drawn
+    anew at each homing). ``payload_kg`` is the undeclared payload of a hidden ``payload``."""
+    if name == "payload":
+        return {"mass": [float(payload_kg)]}
+    if name in PER_HOMING_EFFECTS or not generator.is_enabled(name):
         return None
     effect = generator.effect(name)
     if name == "hysteresis":
-        return {"stiffness": effect.stiffness.tolist(), "width": (1.0 / (effect.beta + effect.gamma)).tolist()}
+        # the candidate's width is 1 / beta and its shape gamma / beta
+        return {"stiffness": effect.stiffness.tolist(), "width": (1.0 / effect.beta).tolist(),
+                "shape": (effect.gamma / effect.beta).tolist()}
     if name == "drift":
         # the candidate's fatigue dose runs in operating hours (time scale 1): its rates carry the generator's scale
         return {"creep_rate": (effect.creep_rate * effect.time_scale).tolist(),
                 "stiffness_loss": (effect.stiffness_loss * effect.time_scale).tolist()}
+    if name == "motor_friction":
+        return {"coulomb": effect.coulomb[:3].tolist(), "gearbox_loss": effect.gearbox_loss[:3].tolist()}
+    if name == "capstan_friction":
+        return {"coefficient": effect.coefficient.tolist()}
     fields = {"backlash": ("half_width",), "capstan_runout": ("amplitude",), "coulomb_friction": ("force",),
-              "viscous_friction": ("coefficient",), "gravity_stretch": ("load_scale",), "coupling": ("delta",)}
+              "viscous_friction": ("coefficient",), "gravity_stretch": ("load_scale",), "coupling": ("delta",),
+              "transmission_error": ("ratio_error",), "gravity_model_error": ("scale_error",)}
     return {f: np.asarray(getattr(effect, f), dtype=float).tolist() for f in fields.get(name, ())} or None
 
 
@@ -316,3 +371,35 @@ def run_on_dvrk(root=None, joints=(3, 4, 5), settings: WorkflowSettings = Workfl
     names = tuple(JOINT_NAMES[j] for j in joints)
     units = tuple("m" if PRISMATIC_JOINTS[j] else "rad" for j in joints)
     return run_on_generic(time, reported, truth, names, units, held_out_start=len(train.t), settings=settings)
+
+
+DVRK_CALIBRATORS = ("fixed offset", "linear", "window linear, 5 rows", "DNN 100-100")
+"""The learned calibrators the dVRK analysis is compared with (the best of the README's dVRK table
+and the paper's network), trained on the same random motion and scored on the same peg transfer."""
+
+
+def learned_calibrators_on_dvrk(root=None, joints=(3, 4, 5)) -> dict:
+    """Held-out RMSE per studied joint (SI) of learned calibrators on the split of :func:`run_on_dvrk`.
+
+    Each is trained on the whole random motion (the workflow's fit and validation parts) with the
+    six commanded joints as inputs, in error mode, and scored on the peg-transfer recording (the
+    workflow's held-out part). Returns {name: (J,) RMSE}.
+    """
+    from estimators import DNNCalibrator, FixedOffsetCalibrator, LinearCalibrator, WindowLinearCalibrator
+    from simulation.recordings.dvrk import load_dvrk
+
+    raw = list(range(6))
+    makers = {
+        "fixed offset": lambda: FixedOffsetCalibrator(raw_columns=raw),
+        "linear": lambda: LinearCalibrator(raw_columns=raw),
+        "window linear, 5 rows": lambda: WindowLinearCalibrator(raw_columns=raw, window=5),
+        "DNN 100-100": lambda: DNNCalibrator(raw_columns=raw, random_state=0, n_threads=1),
+    }
+    train = load_dvrk(root, "random_unfiltered")
+    test = load_dvrk(root, "peg_transfer")
+    joints = list(joints)
+    scores = {}
+    for name in DVRK_CALIBRATORS:
+        predicted = makers[name]().fit(train.X, train.y).predict(test.X)
+        scores[name] = np.sqrt(np.mean(np.square(test.y[:, joints] - predicted[:, joints]), axis=0))
+    return scores
