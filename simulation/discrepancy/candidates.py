@@ -250,6 +250,10 @@ def generic_candidates(signals: MeasuredSignals) -> list[Candidate]:
         Candidate("drift", (ParameterBlock("creep", j, -0.1, 0.1, 1e-3, 0.0, travel),), _generic("drift"), _any),
         Candidate("transmission_error", (ParameterBlock("ratio_error", j, -0.5, 0.5, 1e-2, 0.0, "1"),),
                   _generic("transmission_error"), _any),
+        Candidate("coupled_viscous_friction", (ParameterBlock("lag_per_speed", j * (j - 1), -10.0, 10.0, 0.1, 0.0,
+                                                              tuple(f"{joint[r]} s/{joint[c]}" for r in range(j)
+                                                                    for c in range(j) if r != c)),),
+                  _generic("coupled_viscous_friction"), _any),
     ]
 
 

@@ -16,7 +16,7 @@ from simulation.discrepancy.replay import ReplayState, bouc_wen_series, play_ser
 from simulation.discrepancy.signals import MeasuredSignals
 
 GENERIC_EFFECTS = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "coupling", "drift",
-                   "transmission_error")
+                   "transmission_error", "coupled_viscous_friction")
 
 
 def velocity_scale(signals: MeasuredSignals) -> np.ndarray:
@@ -52,6 +52,11 @@ def generic_contribution(name: str, values: dict, signals: MeasuredSignals) -> n
         return reported @ matrix.T
     if name == "drift":
         return -values["creep"] * signals.cumulative_motion()
+    if name == "coupled_viscous_friction":
+        # a joint lags in proportion to the other joints' speeds (cables routed over their pulleys)
+        matrix = np.zeros((n_joints, n_joints))
+        matrix[~np.eye(n_joints, dtype=bool)] = values["lag_per_speed"]
+        return -signals.drive_velocity @ matrix.T
     if name == "transmission_error":
         # the joint moves (1 + ratio_error) times what the controller reports
         return values["ratio_error"] * reported

@@ -1,0 +1,98 @@
+"""The RAVEN-II replay of the discrepancy workflow: the loads, torques and restarts new candidates rely on.
+
+A short simulated record (the starting structure only) is replayed with and without one candidate
+at a time, and what the candidate adds is checked against an independent computation: the
+kinematics model's loads, the friction law written out, the replay of the whole record.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kinematics import RavenII
+from simulation.discrepancy import MeasuredSignals
+from simulation.discrepancy.candidates import RAVEN_LIBRARY, library
+from simulation.discrepancy.replay import MOTOR_STICTION_SPEED, RavenModel
+from simulation.model.effects import MotorFriction
+from studies.common.discrepancy_runs import generate_measured, generator_parameters
+
+
+@pytest.fixture(scope="module")
+def record():
+    """20 s of random motion of the starting structure, re-homed once (a hidden per-homing offset)."""
+    dataset, _ = generate_measured(("homing_offset",), seed=5, duration=20.0)
+    signals = MeasuredSignals.from_dataset(dataset)
+    model = RavenModel(generator_parameters(()), np.zeros(3))
+    return signals, model, RavenII(signals.arm, check_limits=False)
+
+
+def test_payload_loads_are_the_kinematics_loads_of_one_more_kilogram(record):
+    signals, _, robot = record
+    per_kg, _ = signals.payload_loads(robot)
+    q6 = np.column_stack([signals.truth, signals.tool_joints])
+    expected = robot.gravity_torques(q6, payload_kg=0.7) - robot.gravity_torques(q6, payload_kg=0.0)
+    np.testing.assert_allclose(0.7 * per_kg, expected, rtol=1e-9, atol=1e-12)
+    # a hanging mass loads the shoulder and the insertion axis
+    assert np.all(np.sqrt(np.mean(per_kg ** 2, axis=0))[[0, 2]] > 0.1)
+
+
+def test_an_undeclared_payload_stretches_the_cables_and_loads_the_motors(record):
+    signals, model, robot = record
+    without, heavier = model.replay(signals, robot), model.with_payload(0.5).replay(signals, robot)
+    assert model.with_payload(0.5).enabled_effects[-1] == "payload"
+    # more tension: the motors hold more torque and the links sag further along the load
+    gravity_per_kg, _ = signals.payload_loads(robot)
+    tension_change = heavier.tension - without.tension
+    moving = np.abs(gravity_per_kg) > 0.05
+    assert np.all(np.sign(tension_change[moving]) == np.sign(gravity_per_kg[moving]))
+    assert np.max(np.abs(heavier.joints - without.joints)) > 1e-4
+
+
+def test_replayed_motor_friction_opposes_the_motor_motion_with_its_datasheet_torque(record):
+    signals, model, robot = record
+    coulomb = np.array([4e-3, 5e-3, 6e-3, 0, 0, 0, 0])
+    friction = MotorFriction(coulomb=coulomb, gearbox_loss=np.zeros(7))
+    added = model.with_effect(friction).replay(signals, robot).torque - model.replay(signals, robot).torque
+    c = model.params.constants
+    speed = signals.drive_velocity
+    fast = np.abs(speed) > 5 * MOTOR_STICTION_SPEED
+    # at the gearbox output: the shaft friction times the gearbox ratio, against the motor velocity
+    expected = coulomb[:3] * c.gearbox[:3] * np.sign(speed)
+    np.testing.assert_allclose(added[fast], expected[fast], rtol=1e-3)
+    # joints are driven by the measured motor positions, so motor friction does not move them
+    np.testing.assert_array_equal(model.with_effect(friction).replay(signals, robot).joints,
+                                  model.replay(signals, robot).joints)
+
+
+def test_the_replay_of_the_first_samples_is_the_first_samples_of_the_replay(record):
+    signals, model, robot = record
+    n = len(signals) // 2
+    whole, head = model.replay(signals, robot), model.replay(signals.head(n), robot)
+    np.testing.assert_allclose(head.joints, whole.joints[:n], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(head.torque, whole.torque[:n], rtol=0, atol=1e-12)
+
+
+def test_a_rehoming_restarts_the_replay_as_if_the_record_began_there(record):
+    signals, model, robot = record
+    assert np.count_nonzero(signals.restarts) == 2
+    start = np.flatnonzero(signals.restarts)[1]
+    # the encoders were re-registered there: nothing before the re-homing carries over (play,
+    # friction stick, derivatives across the jump of the motor positions)
+    whole = model.replay(signals, robot)
+    later = model.replay(signals.select(np.arange(len(signals)) >= start), robot)
+    np.testing.assert_allclose(whole.joints[start:], later.joints, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(whole.torque[start:], later.torque, rtol=0, atol=1e-9)
+    assert np.all(np.abs(signals.drive_velocity[start]) < 1e-9)
+
+
+def test_the_library_holds_ten_candidates_and_says_why_one_cannot_apply(record):
+    signals, model, _ = record
+    candidates = {c.name: c for c in library(signals)}
+    assert len(RAVEN_LIBRARY) >= 10 and set(RAVEN_LIBRARY) <= set(candidates)
+    applies, reason = candidates["gravity_model_error"].applies(model, signals, "gravity_model_error")
+    assert not applies and "gravity compensation" in reason
+    applies, _ = candidates["payload"].applies(model, signals, "payload")
+    assert applies
+    already, reason = candidates["coulomb_friction"].applies(model, signals, "coulomb_friction")
+    assert not already and "already in the model" in reason
