@@ -50,6 +50,7 @@ from studies.common.discrepancy_runs import (
     LIBRARY,
     learned_calibrators_on_dvrk,
     STARTING_STRUCTURE,
+    UNMODELLED_EFFECTS,
     analyse_measured,
     check_hidden,
     generate_measured,
@@ -476,7 +477,10 @@ def add_learned_comparison(out: Path, result: DiscrepancyResult, scores: dict) -
 
 
 def _named_first(hidden: str, result) -> bool:
-    """Whether the first effect named is the hidden one, or one the data cannot tell from it."""
+    """Whether the first effect named is the hidden one, or one the data cannot tell from it; for an
+    effect the library lacks, whether nothing was named and the residual was flagged unexplained."""
+    if hidden in UNMODELLED_EFFECTS:
+        return not result["named"] and result["unexplained"]
     if not result["named"]:
         return hidden == "none"
     first = result["named"][0]
@@ -521,7 +525,8 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         shrink = np.array([r["shrink"] for r in mine]) * 100
         closable = np.array([r["oracle_shrink"] for r in mine]) * 100
         gap = np.array([r["gap_before"] for r in mine])
-        goal = (named >= 0.8 * len(mine) and bool(np.all(shrink >= np.minimum(50.0, 0.8 * closable))))
+        goal = named >= 0.8 * len(mine) and (e in UNMODELLED_EFFECTS
+                                             or bool(np.all(shrink >= np.minimum(50.0, 0.8 * closable))))
         summary_rows.append([e, f"{named} of {len(mine)}", f"{np.mean(gap):.4f}",
                              f"{np.mean(shrink):.1f} [{np.min(shrink):.1f}, {np.max(shrink):.1f}]",
                              f"{np.mean(closable):.1f} [{np.min(closable):.1f}, {np.max(closable):.1f}]",
@@ -536,7 +541,8 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         f"structure {', '.join(STARTING_STRUCTURE)}; library {', '.join(LIBRARY)}.", "",
         "## Per hidden effect", "",
         "Named first: runs whose first named effect is the hidden one (or one the data cannot tell from it, "
-        "e.g. the two kinds of per-homing offset). Gap: the starting model's held-out gap (pooled RMSE, deg and "
+        "e.g. the two kinds of per-homing offset); for an effect the library lacks, runs that name nothing and "
+        "flag the residual unexplained. Gap: the starting model's held-out gap (pooled RMSE, deg and "
         "mm). Shrink and oracle shrink: mean [min, max] over the seeds, %; the oracle is the generator's true "
         "structure fitted to the same fit part by the same steps. Goal: named first on at least 4 of 5 seeds "
         "and, on every seed, a shrink of at least 50 % or 80 % of the oracle's.", "",
