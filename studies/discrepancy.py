@@ -362,6 +362,14 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     return result, signals, split
 
 
+def _insert_before_figures(out: Path, lines: list[str]) -> None:
+    """Insert a section (``lines``) into ``out/report.md`` just before its figures."""
+    md = Path(out) / "report.md"
+    text = md.read_text()
+    cut = text.index("## Figures")
+    write_text(md, text[:cut] + "\n".join(lines) + "\n" + text[cut:])
+
+
 def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,
                             result: DiscrepancyResult, size_factor: float = 1.0) -> dict:
     """After the blind analysis: add the hidden effect, the true parameters and the oracle to the report."""
@@ -429,10 +437,7 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         if oracle_rows else "(nothing hidden)",
         "",
     ]
-    md = Path(out) / "report.md"
-    text = md.read_text()
-    cut = text.index("## Figures")
-    write_text(md, text[:cut] + "\n".join(section) + "\n" + text[cut:])
+    _insert_before_figures(out, section)
     return document
 
 
@@ -469,10 +474,7 @@ def add_learned_comparison(out: Path, result: DiscrepancyResult, scores: dict) -
         f"{pooled(result.gap_after):.3f} with the named effects).",
         "",
     ]
-    md = Path(out) / "report.md"
-    text = md.read_text()
-    cut = text.index("## Figures")
-    write_text(md, text[:cut] + "\n".join(section) + "\n" + text[cut:])
+    _insert_before_figures(out, section)
     return document
 
 

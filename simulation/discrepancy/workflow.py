@@ -373,8 +373,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         shared = [e for e in extras if e != "payload"]
         correction = share(m, shared) if shared else None
         payload = getattr(m, "payload_kg", 0.0)
-        identified = base.identify(new_structure, correction, payload) if payload else base.identify(new_structure,
-                                                                                                      correction)
+        identified = base.identify(new_structure, correction, payload)
         return with_fitted_offsets(_transplant(m, identified, extras))
 
     def profile(candidate, weights, coarse=False):
@@ -428,8 +427,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         if candidate.name in profile_points:
             _, _, trial = profile(candidate, weights)
             return trial, current_values_of(trial, candidate)
-        start = model
-        theta, trial, chi = fit_candidate(candidate, start, signals, weights, robot, mask=split.fit, initial=scanned,
+        theta, trial, chi = fit_candidate(candidate, model, signals, weights, robot, mask=split.fit, initial=scanned,
                                           starts=1, max_iter=30)
         trial = with_fitted_offsets(trial)
         # the model's friction may have stood in for the missing effect: fit them together
