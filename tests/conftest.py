@@ -6,8 +6,10 @@ workers' threads outnumber the cores (and any other busy process does the same).
 idle OpenMP thread spins on its core waiting for the next task, taking the core from the other
 workers: measured on 2 cores beside a busy process, 50 epochs of the paper's network on 6000 rows
 took 36 s instead of 2.5 s, and two xdist workers training at once took 87-98 s each instead of
-13.5 s. ``OMP_WAIT_POLICY=PASSIVE`` makes waiting threads sleep. It leaves the number of threads
-as it is (tests that check a thread setting is restored still see the library default); it is
+13.5 s. ``OMP_WAIT_POLICY=PASSIVE`` makes waiting threads sleep, and ``OMP_NUM_THREADS=1``
+gives each worker one OpenMP thread: even sleeping, a worker's second thread waits for a core the
+other worker holds (measured on 2 cores: the whole suite took 302 s with torch's default two
+threads per worker and 251 s with one; the compare_sota module's fixture 59 s and 25 s). Both are
 read when the OpenMP runtime loads, after this file runs, and passed on to the subprocesses that
 tests start. A value the user set is kept.
 
@@ -25,4 +27,5 @@ from __future__ import annotations
 import os
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")

@@ -207,7 +207,8 @@ def test_dnn_early_stopping_keeps_the_best_validation_epoch():
 def test_dnn_thread_setting_is_restored():
     before = torch.get_num_threads()
     X, y = regression_data(n_samples=50)
-    DNNCalibrator(hidden_layer_sizes=(4,), max_epochs=2, n_threads=1).fit(X, y)
+    # a thread count other than the current one, so that a fit that kept its own would be seen
+    DNNCalibrator(hidden_layer_sizes=(4,), max_epochs=2, n_threads=before % 2 + 1).fit(X, y)
     assert torch.get_num_threads() == before
 
 

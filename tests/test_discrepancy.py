@@ -38,10 +38,15 @@ from studies.common.discrepancy_runs import (
 )
 
 pytestmark = pytest.mark.xdist_group("discrepancy")
-"""One worker runs the tests of a group, so the memoised runs (module fixtures) they share are
-computed once; the hidden-effect analyses form a second group (:data:`ANALYSES`) so that the two
-halves run side by side."""
-ANALYSES = pytest.mark.xdist_group("discrepancy-analyses")
+"""One worker runs the tests of this group, so the memoised command-line runs (a module fixture)
+they share are computed once; each hidden-effect analysis that shares nothing is its own group
+(:func:`alone`), so that the workers can balance them."""
+
+
+def alone(effect, seed):
+    """The seed parameter of an ``effect`` test that forms its own xdist group (a test's own mark
+    overrides the module's)."""
+    return pytest.param(seed, marks=pytest.mark.xdist_group(f"discrepancy-{effect}-{seed}"))
 
 DURATION = 120.0
 SIZE_FACTORS = {"backlash": 3.0, "capstan_runout": 12.5}
@@ -103,13 +108,12 @@ def _look_alike(effect, seed):
     meets_the_goal(result, (effect,))
 
 
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [alone("backlash", 0), alone("backlash", 1)])
 def test_hidden_backlash_is_named_and_closes_half_the_gap(seed):
     _look_alike("backlash", seed)
 
 
-@ANALYSES
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [alone("hysteresis", 0), alone("hysteresis", 1)])
 def test_hidden_hysteresis_is_named_and_closes_half_the_gap(seed):
     _look_alike("hysteresis", seed)
 

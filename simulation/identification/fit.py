@@ -147,6 +147,15 @@ def _initial_offsets(samples: IdentificationSamples, params: RavenParameters, ef
     return np.mean(samples.joints - predicted, axis=0)
 
 
+_WARM_START = {"warm_start_init_point": "yes", "mu_init": 1e-2, "warm_start_bound_push": 1e-9,
+               "warm_start_mult_bound_push": 1e-9}
+"""IPOPT options of a reweighting pass, which starts at the previous pass's solution: a smaller
+barrier parameter than IPOPT's 0.1 and no push away from the bounds, so it does not first walk back
+into the interior. On two-minute logs of the discrepancy tests: 13 and 17 iterations instead of 25,
+the same estimates to 7 digits; on a one-minute log its model fits badly (an eccentric capstan),
+114 instead of 198. A smaller barrier (1e-4, 1e-6) stalls on that log at the 200-iteration limit."""
+
+
 class _Problem:
     """The residuals of one fit as fast casadi maps over the samples."""
 
@@ -190,7 +199,8 @@ class _Problem:
         return ca.Function("nlp_hess_l", [x, ca.MX.sym("p", 0), lam_f, lam_g], [ca.triu(hessian)],
                            ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
 
-    def solve(self, xi0, sigma, max_iterations: int, print_level: int = 0) -> tuple[np.ndarray, int, str]:
+    def solve(self, xi0, sigma, max_iterations: int, print_level: int = 0,
+              warm: bool = False) -> tuple[np.ndarray, int, str]:
         opti = ca.Opti()
         xi = opti.variable(self.p)
         opti.minimize(self.cost_map(xi, self.data, ca.DM(sigma)) / self.n)
@@ -206,7 +216,7 @@ class _Problem:
         opti.set_initial(xi, xi0)
         opti.solver("ipopt", {"print_time": False, "hess_lag": self._hessian(sigma, n_constraints)},
                     {"print_level": int(print_level), "sb": "yes", "max_iter": int(max_iterations), "tol": 1e-8,
-                     "acceptable_tol": 1e-5, "acceptable_iter": 2})
+                     "acceptable_tol": 1e-5, "acceptable_iter": 2, **(_WARM_START if warm else {})})
         try:
             solution = opti.solve()
             stats = solution.stats()
@@ -404,7 +414,8 @@ def identify(log, *, effects=FITTABLE_EFFECTS, base: RavenParameters | None = No
     converged = True
     started = time.perf_counter()
     for k in range(int(reweight_passes) + 1):
-        xi, iterations, status = problem.solve(xi, sigma, max_iterations, print_level=5 if verbose >= 2 else 0)
+        xi, iterations, status = problem.solve(xi, sigma, max_iterations, print_level=5 if verbose >= 2 else 0,
+                                               warm=k > 0)
         converged = converged and status in ACCEPTED_STATUS
         if verbose >= 1:
             print(f"identify: pass {k + 1} of {int(reweight_passes) + 1}, {len(samples)} samples, {len(layout)} "
