@@ -149,6 +149,19 @@ LOAD_PER_SPEED_UNITS = ("N m s/rad", "N m s/rad", "N s/m")
 LOAD_PER_STRETCH_UNITS = ("N m/rad", "N m/rad", "N/m")
 
 
+def _velocity_scale(model) -> np.ndarray:
+    """The friction law's velocity scale of ``model`` (the identification's nominal one), which a
+    refitted Coulomb force keeps."""
+    return model.params.effect("coulomb_friction").velocity_scale
+
+
+DRIFT_REFERENCE_SPEED = np.array([0.1, 0.1, 0.01])
+"""Speed (rad/s, rad/s, m/s) at which the drift candidate's fatigue dose runs one hour per hour of
+motion: a round typical joint speed during calibration. The candidate's rates are per such hour;
+it ages the cables with travel alone (no payload term), since how a payload speeds aging is not
+something a log states."""
+
+
 def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
     """Every candidate the cable model can take for RAVEN-II data (the simulator's named effects).
 
@@ -176,7 +189,8 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
         Candidate("backlash", (ParameterBlock("half_width", 3, 0.0, 0.02, (1e-3, 1e-3, 5e-5), 0.0, JOINT_UNITS),),
                   _raven_effect(lambda m, v: Backlash(half_width=v["half_width"])), _raven_only),
         Candidate("coulomb_friction", (ParameterBlock("force", 3, 0.0, 20.0, (0.2, 0.2, 1.0), 0.0, LOAD_UNITS),),
-                  _raven_effect(lambda m, v: CoulombFriction(force=v["force"])), _raven_only),
+                  _raven_effect(lambda m, v: CoulombFriction(force=v["force"], velocity_scale=_velocity_scale(m))),
+                  _raven_only),
         Candidate("viscous_friction", (ParameterBlock("coefficient", 3, 0.0, 500.0, (0.5, 0.5, 10.0), 0.0,
                                                       LOAD_PER_SPEED_UNITS),),
                   _raven_effect(lambda m, v: ViscousFriction(coefficient=v["coefficient"])), _raven_only),
@@ -194,7 +208,8 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
         Candidate("drift", (ParameterBlock("creep_rate", 3, 0.0, 10.0, (3e-2, 3e-2, 3e-4), 0.0,
                                            ("rad/h", "rad/h", "m/h")),
                             ParameterBlock("stiffness_loss", 3, 0.0, 1000.0, 0.5, 0.0, "1/h")),
-                  _raven_effect(lambda m, v: Drift(creep_rate=v["creep_rate"], stiffness_loss=v["stiffness_loss"])),
+                  _raven_effect(lambda m, v: Drift(creep_rate=v["creep_rate"], stiffness_loss=v["stiffness_loss"],
+                                                   reference_speed=DRIFT_REFERENCE_SPEED, payload_gain=np.zeros(3))),
                   _raven_only),
         Candidate("transmission_error", (ParameterBlock("ratio_error", 3, -0.1, 0.1, 1e-3, 0.0, "1"),),
                   _raven_effect(lambda m, v: TransmissionError(ratio_error=v["ratio_error"])), _raven_only),

@@ -324,9 +324,14 @@ def true_values(generator: RavenParameters, name: str, payload_kg: float = 0.0) 
         return {"stiffness": effect.stiffness.tolist(), "width": (1.0 / effect.beta).tolist(),
                 "shape": (effect.gamma / effect.beta).tolist()}
     if name == "drift":
-        # the candidate's fatigue dose runs in operating hours (time scale 1): its rates carry the generator's scale
-        return {"creep_rate": (effect.creep_rate * effect.time_scale).tolist(),
-                "stiffness_loss": (effect.stiffness_loss * effect.time_scale).tolist()}
+        # the candidate's fatigue dose runs one hour per hour of travel at its own reference speed
+        # (time scale 1): its rates carry the generator's scale and the ratio of the reference
+        # speeds (the generator's payload term has no counterpart in the candidate)
+        from simulation.discrepancy.candidates import DRIFT_REFERENCE_SPEED
+
+        per_dose = effect.time_scale * DRIFT_REFERENCE_SPEED / effect.reference_speed
+        return {"creep_rate": (effect.creep_rate * per_dose).tolist(),
+                "stiffness_loss": (effect.stiffness_loss * per_dose).tolist()}
     if name == "motor_friction":
         return {"coulomb": effect.coulomb[:3].tolist(), "gearbox_loss": effect.gearbox_loss[:3].tolist()}
     if name == "capstan_friction":
