@@ -55,6 +55,7 @@ from simulation.identification.layout import (
     ParameterLayout,
     build_layout,
 )
+from simulation.identification.compiled import sample_functions
 from simulation.identification.residuals import D_GRAVITY, D_INERTIAL, D_Q, D_QD, D_TAU, D_U, D_UD, D_UDD, D_WQ, D_WT, N_DATA, residual_function
 from simulation.identification.result import FitReport, IdentificationResult, NotIdentifiableError, ParameterEstimate, PoorlyIdentifiedWarning
 from simulation.identification.samples import DERIVATIVE_WINDOW, IdentificationSamples, prepare_samples
@@ -165,25 +166,20 @@ class _Problem:
         self.n = data.shape[1]
         self.p = len(layout)
         self.data = ca.DM(data)
-        self.residual = residual_function(layout, params.constants, velocity_scale)
-        xi, d, sigma = (ca.SX.sym(n, s) for n, s in (("xi", self.p), ("d", N_DATA), ("sigma", 6)))
-        r = self.residual(xi, d, sigma)
-        cost = ca.Function("cost", [xi, d, sigma], [0.5 * ca.sumsqr(r)])
-        jac_r = ca.jacobian(r, xi)
-        jac = ca.Function("residual_jacobian", [xi, d, sigma], [jac_r])
-        gauss_newton = ca.Function("gauss_newton", [xi, d, sigma], [jac_r.T @ jac_r])
-        self.cost_map = cost.map("cost_map", "serial", self.n, [0, 2], [0])
-        self.gauss_newton_map = gauss_newton.map("gauss_newton_map", "serial", self.n, [0, 2], [0])
-        self.residual_map = self.residual.map("residual_map", "serial", self.n, [0, 2], [])
-        self.jacobian_map = jac.map("jacobian_map", "serial", self.n, [0, 2], [])
+        functions = sample_functions(residual_function(layout, params.constants, velocity_scale))
+        self.references = ca.DM(layout.references())
+        self.cost_map = functions.cost.map("cost_map", "serial", self.n, [0, 2, 3], [0])
+        self.gauss_newton_map = functions.gauss_newton.map("gauss_newton_map", "serial", self.n, [0, 2, 3], [0])
+        self.residual_map = functions.residual.map("residual_map", "serial", self.n, [0, 2, 3], [])
+        self.jacobian_map = functions.jacobian.map("jacobian_map", "serial", self.n, [0, 2, 3], [])
 
     def residuals(self, xi, sigma) -> np.ndarray:
         """(n, 6) weighted, scaled residuals."""
-        return np.array(self.residual_map(xi, self.data, sigma)).T
+        return np.array(self.residual_map(xi, self.data, sigma, self.references)).T
 
     def jacobian(self, xi, sigma) -> np.ndarray:
         """(n, 6, p) Jacobian of the residuals with respect to the unknowns."""
-        blocks = np.array(self.jacobian_map(xi, self.data, sigma))
+        blocks = np.array(self.jacobian_map(xi, self.data, sigma, self.references))
         return blocks.reshape(6, self.n, self.p).transpose(1, 0, 2)
 
     def _hessian(self, sigma, n_constraints: int) -> ca.Function:
@@ -195,7 +191,7 @@ class _Problem:
         x = ca.MX.sym("x", self.p)
         lam_f = ca.MX.sym("lam_f")
         lam_g = ca.MX.sym("lam_g", n_constraints)
-        hessian = lam_f * self.gauss_newton_map(x, self.data, ca.DM(sigma)) / self.n
+        hessian = lam_f * self.gauss_newton_map(x, self.data, ca.DM(sigma), self.references) / self.n
         return ca.Function("nlp_hess_l", [x, ca.MX.sym("p", 0), lam_f, lam_g], [ca.triu(hessian)],
                            ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
 
@@ -203,7 +199,7 @@ class _Problem:
               warm: bool = False) -> tuple[np.ndarray, int, str]:
         opti = ca.Opti()
         xi = opti.variable(self.p)
-        opti.minimize(self.cost_map(xi, self.data, ca.DM(sigma)) / self.n)
+        opti.minimize(self.cost_map(xi, self.data, ca.DM(sigma), self.references) / self.n)
         lower, upper = self.layout.bounds()
         n_constraints = 0
         for k in range(self.p):

@@ -150,14 +150,21 @@ class ParameterLayout:
             values[spec.slot] = spec.value(x)
         return values
 
-    def symbolic_slots(self, xi: ca.SX) -> ca.SX:
-        """:meth:`slots` as a casadi expression of the unknowns."""
+    def references(self) -> np.ndarray:
+        """(2 p,) the free parameters' reference values, then their scales: the numbers
+        :meth:`symbolic_slots` takes as an input, so that one compiled residual serves every fit
+        of the same structure whatever its starting values."""
+        return np.array([spec.reference for spec in self.specs] + [spec.scale for spec in self.specs], dtype=float)
+
+    def symbolic_slots(self, xi: ca.SX, references: ca.SX) -> ca.SX:
+        """:meth:`slots` as a casadi expression of the unknowns and of :meth:`references`."""
+        p = len(self.specs)
         entries = [ca.SX(v) for v in self.slot_values]
         for k, spec in enumerate(self.specs):
             if spec.transform == "log":
-                entries[spec.slot] = spec.reference * ca.exp(xi[k])
+                entries[spec.slot] = references[k] * ca.exp(xi[k])
             else:
-                entries[spec.slot] = spec.reference + spec.scale * xi[k]
+                entries[spec.slot] = references[k] + references[p + k] * xi[k]
         return ca.vertcat(*entries)
 
     def derivatives(self, xi) -> np.ndarray:

@@ -46,15 +46,17 @@ N_RESIDUALS = 6
 
 
 def residual_function(layout: ParameterLayout, constants: RavenConstants, velocity_scale: np.ndarray) -> ca.Function:
-    """casadi function ``(xi, d, sigma) -> r``: the 6 weighted, scaled residuals of one sample.
+    """casadi function ``(xi, d, sigma, references) -> r``: the 6 weighted, scaled residuals of one sample.
 
     ``xi`` are the layout's unknowns, ``d`` the sample's data column (rows ``D_*``), ``sigma`` the
-    noise level of each residual channel (3 joint, 3 torque).
+    noise level of each residual channel (3 joint, 3 torque), ``references`` the layout's
+    :meth:`~.layout.ParameterLayout.references` (the values the unknowns are measured from).
     """
     xi = ca.SX.sym("xi", len(layout))
     d = ca.SX.sym("d", N_DATA)
     sigma = ca.SX.sym("sigma", N_RESIDUALS)
-    slots = layout.symbolic_slots(xi)
+    references = ca.SX.sym("references", 2 * len(layout))
+    slots = layout.symbolic_slots(xi, references)
     k, x0, damping = slots[STIFFNESS], slots[HARDENING], slots[DAMPING]
     coulomb, viscous, load_scale = slots[COULOMB], slots[VISCOUS], slots[LOAD_SCALE]
     nominal = np.asarray(constants.cable_coupling, dtype=float)
@@ -73,4 +75,4 @@ def residual_function(layout: ParameterLayout, constants: RavenConstants, veloci
     motor_damping = ca.DM(constants.motor_damping[:3] * constants.transmission_ratio[:3] ** 2)
     torque = motor_inertia * udd + motor_damping * ud + law.motor_load(a, tension)
     residual = ca.vertcat(d[D_WQ] * (q - predicted), d[D_WT] * (d[D_TAU] - torque)) / sigma
-    return ca.Function("cable_residual", [xi, d, sigma], [residual])
+    return ca.Function("cable_residual", [xi, d, sigma, references], [residual])
