@@ -148,13 +148,17 @@ def _initial_offsets(samples: IdentificationSamples, params: RavenParameters, ef
     return np.mean(samples.joints - predicted, axis=0)
 
 
-_WARM_START = {"warm_start_init_point": "yes", "mu_init": 1e-2, "warm_start_bound_push": 1e-9,
-               "warm_start_mult_bound_push": 1e-9}
+_WARM_START = {"warm_start_init_point": "yes", "mu_init": 1e-2, "mu_strategy": "adaptive",
+               "warm_start_bound_push": 1e-9, "warm_start_mult_bound_push": 1e-9}
 """IPOPT options of a reweighting pass, which starts at the previous pass's solution: a smaller
-barrier parameter than IPOPT's 0.1 and no push away from the bounds, so it does not first walk back
-into the interior. On two-minute logs of the discrepancy tests: 13 and 17 iterations instead of 25,
-the same estimates to 7 digits; on a one-minute log its model fits badly (an eccentric capstan),
-114 instead of 198. A smaller barrier (1e-4, 1e-6) stalls on that log at the 200-iteration limit."""
+barrier parameter than IPOPT's 0.1, no push away from the bounds (so it does not first walk back
+into the interior) and the adaptive barrier update. With the monotone update the pass crawled where
+the model fits to the encoders' resolution: on two-minute logs of the discrepancy tests, 128
+iterations with nothing hidden and 176 with an eccentric capstan, against 6 and 17 adaptive, with
+estimates within 0.12 standard errors and replayed joints within 3e-9 rad
+(``python benchmarks/bench_identification.py`` times a whole fit). The first pass, from the
+uninformed start, keeps the monotone update: adaptive from there, the capstan log stalls at the
+200-iteration limit."""
 
 
 class _Problem:
