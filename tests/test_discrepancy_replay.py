@@ -14,7 +14,7 @@ from kinematics import RavenII
 from simulation.discrepancy import MeasuredSignals
 from simulation.discrepancy.candidates import RAVEN_LIBRARY, library
 from simulation.discrepancy.replay import MOTOR_STICTION_SPEED, RavenModel
-from simulation.model.effects import MotorFriction
+from simulation.model.effects import Hysteresis, MotorFriction
 from studies.common.discrepancy_runs import generate_measured, generator_parameters
 
 
@@ -96,3 +96,28 @@ def test_the_library_holds_ten_candidates_and_says_why_one_cannot_apply(record):
     assert applies
     already, reason = candidates["coulomb_friction"].applies(model, signals, "coulomb_friction")
     assert not already and "already in the model" in reason
+
+
+def test_remembered_cable_series_are_those_of_a_fresh_run_and_follow_every_input(record, monkeypatch):
+    from dataclasses import replace as with_values
+
+    from simulation.discrepancy import replay as replay_module
+
+    signals, model, robot = record
+    loops = Hysteresis(stiffness=np.array([40.0, 30.0, 400.0]), beta=np.array([400.0, 400.0, 4000.0]),
+                       gamma=np.array([100.0, 100.0, 1000.0]))
+    hysteretic = RavenModel(model.params.with_effect(loops), np.zeros(3))
+    monkeypatch.setattr(replay_module, "_SERIES", replay_module._SeriesMemo())
+    first = hysteretic.replay(signals, robot)
+    again = hysteretic.replay(signals, robot)
+    # a stiffer elbow cable changes the elbow only, and what is remembered follows it
+    law = hysteretic.params.effect("cable_stretch")
+    stiffer = with_values(hysteretic, params=hysteretic.params.with_effect(
+        with_values(law, stiffness=law.stiffness * np.array([1.0, 1.5, 1.0]))))
+    changed = stiffer.replay(signals, robot)
+    monkeypatch.setattr(replay_module, "_SERIES", replay_module._SeriesMemo(size=0))
+    fresh_changed = stiffer.replay(signals, robot)
+    np.testing.assert_array_equal(first.joints, again.joints)
+    np.testing.assert_array_equal(changed.joints, fresh_changed.joints)
+    assert np.max(np.abs(changed.joints[:, 1] - first.joints[:, 1])) > 1e-6
+    np.testing.assert_array_equal(changed.joints[:, [0, 2]], first.joints[:, [0, 2]])

@@ -18,6 +18,8 @@ that look alike in the joints apart.
 
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -116,7 +118,7 @@ def _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, s
 
 
 @njit(cache=True)
-def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma, time,
+def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma,
                       start, restart, capstan=0.0):
     """Link position of one joint hanging on its cable, sample by sample.
 
@@ -169,6 +171,46 @@ def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteres
         link[k] = state
         zs[k] = z
     return link, zs
+
+
+class _SeriesMemo:
+    """The last results of :func:`cable_link_series`, keyed by a digest of all its inputs.
+
+    A candidate's fit perturbs one parameter at a time to take its gradient, and a parameter of
+    one joint leaves the other joints' series unchanged: their results are taken from here instead
+    of being run again (about a third of the replays' time for per-joint candidates).
+    """
+
+    def __init__(self, size: int = 48):
+        self._size = size
+        self._results: OrderedDict[bytes, tuple[np.ndarray, np.ndarray]] = OrderedDict()
+
+    @staticmethod
+    def _key(arrays, scalars) -> bytes:
+        digest = hashlib.blake2b(digest_size=20)
+        for array in arrays:
+            digest.update(np.ascontiguousarray(array).view(np.uint8))
+        digest.update(np.asarray(scalars, dtype=float).tobytes())
+        return digest.digest()
+
+    def series(self, base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma,
+               start, restart, capstan) -> tuple[np.ndarray, np.ndarray]:
+        key = self._key((base, load, dry, softening, start, restart),
+                        (stiffness, hardening, hysteresis_stiffness, beta, gamma, capstan))
+        if key in self._results:
+            self._results.move_to_end(key)
+            return self._results[key]
+        result = cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta,
+                                   gamma, start, restart, capstan)
+        for array in result:
+            array.setflags(write=False)
+        self._results[key] = result
+        if len(self._results) > self._size:
+            self._results.popitem(last=False)
+        return result
+
+
+_SERIES = _SeriesMemo()
 
 
 @dataclass(frozen=True, eq=False)
@@ -303,10 +345,10 @@ class RavenModel:
             link = np.empty_like(u)
             z = np.empty_like(u)
             for i in range(3):
-                link[:, i], z[:, i] = cable_link_series(
+                link[:, i], z[:, i] = _SERIES.series(
                     np.ascontiguousarray(base[:, i]), np.ascontiguousarray(load[:, i]), np.ascontiguousarray(dry[:, i]),
                     np.ascontiguousarray(softening[:, i]), law.stiffness[i], law.hardening[i], k_h[i],
-                    beta[i], gamma[i], signals.time, np.ascontiguousarray(first[:, i]), signals.restarts,
+                    beta[i], gamma[i], np.ascontiguousarray(first[:, i]), signals.restarts,
                     capstan[i])
             stretch = base - link
             tension = np.column_stack([cable_tension_curve(stretch[:, i], law.stiffness[i], law.hardening[i])
