@@ -3,6 +3,8 @@ one compilation per structure, and the virtual machine when compiling is switche
 
 from __future__ import annotations
 
+import os
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -92,3 +94,13 @@ def test_a_compiler_that_fails_falls_back_with_one_warning(monkeypatch, tmp_path
     args = _inputs(layout, np.random.default_rng(1))
     assert np.isfinite(float(functions.cost(*args)))
     assert isinstance(functions.cost, ca.Function)
+
+
+@needs_compiler
+def test_compiling_writes_nothing_to_the_working_directory(monkeypatch, tmp_path):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(compiled, "_CACHE", {})
+    assert compiled.sample_functions(_residual()[1]).compiled
+    assert list(tmp_path.iterdir()) == []
+    folder = compiled._source_folder()
+    assert not folder.startswith(str(tmp_path)) and any(name.endswith(".c") for name in os.listdir(folder))

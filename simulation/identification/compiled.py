@@ -13,9 +13,11 @@ functions run in the virtual machine.
 
 from __future__ import annotations
 
+import atexit
 import hashlib
 import os
 import shutil
+import tempfile
 import warnings
 from dataclasses import dataclass
 
@@ -50,9 +52,25 @@ def _compiler() -> str | None:
     return shutil.which("cc") or shutil.which("gcc")
 
 
+_SOURCE_FOLDER: list[str] = []
+
+
+def _source_folder() -> str:
+    """A folder of this process for the generated C sources and libraries, removed at exit (casadi
+    writes them to the working directory otherwise, and removes them only when a function is
+    destroyed, which a cached function never is before the interpreter ends)."""
+    if not _SOURCE_FOLDER:
+        folder = tempfile.mkdtemp(prefix="raven_identification_")
+        atexit.register(shutil.rmtree, folder, ignore_errors=True)
+        _SOURCE_FOLDER.append(folder)
+    return _SOURCE_FOLDER[0]
+
+
 def _build(residual: ca.Function, compiler: str | None) -> SampleFunctions:
     options = {} if compiler is None else {
-        "jit": True, "compiler": "shell", "jit_options": {"compiler": compiler, "flags": _COMPILER_FLAGS}}
+        "jit": True, "compiler": "shell", "jit_name": "sample", "jit_cleanup": False,
+        "jit_options": {"compiler": compiler, "flags": _COMPILER_FLAGS, "directory": _source_folder() + os.sep,
+                        "cleanup": False}}
     inputs = [ca.SX.sym(residual.name_in(i), residual.size1_in(i)) for i in range(residual.n_in())]
     r = residual(*inputs)
     jac = ca.jacobian(r, inputs[0])
