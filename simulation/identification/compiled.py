@@ -14,6 +14,7 @@ functions run in the virtual machine.
 from __future__ import annotations
 
 import atexit
+import functools
 import hashlib
 import os
 import shutil
@@ -52,18 +53,14 @@ def _compiler() -> str | None:
     return shutil.which("cc") or shutil.which("gcc")
 
 
-_SOURCE_FOLDER: list[str] = []
-
-
+@functools.cache
 def _source_folder() -> str:
     """A folder of this process for the generated C sources and libraries, removed at exit (casadi
     writes them to the working directory otherwise, and removes them only when a function is
     destroyed, which a cached function never is before the interpreter ends)."""
-    if not _SOURCE_FOLDER:
-        folder = tempfile.mkdtemp(prefix="raven_identification_")
-        atexit.register(shutil.rmtree, folder, ignore_errors=True)
-        _SOURCE_FOLDER.append(folder)
-    return _SOURCE_FOLDER[0]
+    folder = tempfile.mkdtemp(prefix="raven_identification_")
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder
 
 
 def _build(residual: ca.Function, compiler: str | None) -> SampleFunctions:
