@@ -136,12 +136,18 @@ def fit_candidate(candidate: Candidate, model, signals: MeasuredSignals, weights
     """
     lower, upper, scale, typical = candidate.bounds()
 
+    seen: dict[bytes, float] = {}
+
     def evaluate(x):
-        theta = np.clip(x * scale, lower, upper)
-        try:
-            return residual(candidate.apply(model, theta), signals, robot, mask=mask).chi_square(weights)
-        except ValueError:
-            return 1e30
+        # casadi's finite differences evaluate the base point again with every gradient
+        key = np.asarray(x, dtype=float).tobytes()
+        if key not in seen:
+            theta = np.clip(x * scale, lower, upper)
+            try:
+                seen[key] = residual(candidate.apply(model, theta), signals, robot, mask=mask).chi_square(weights)
+            except ValueError:
+                seen[key] = 1e30
+        return seen[key]
 
     objective = _Objective(f"chi2_{candidate.name}", evaluate, candidate.n_parameters)
     best_theta, best_value = None, np.inf

@@ -186,46 +186,32 @@ class _Problem:
         blocks = np.array(self.jacobian_map(xi, self.data, sigma, self.references))
         return blocks.reshape(6, self.n, self.p).transpose(1, 0, 2)
 
-    def _hessian(self, sigma, n_constraints: int) -> ca.Function:
-        """Gauss-Newton Hessian of the Lagrangian, ``J^T J / n`` (the constraints are linear bounds).
+    def _hessian(self, x: ca.MX, sigma: np.ndarray) -> ca.Function:
+        """Gauss-Newton Hessian of the Lagrangian, ``J^T J / n`` (the bounds are IPOPT's own).
 
         It costs one Jacobian pass instead of the exact Hessian's ``p`` second-order passes, and is
         the least-squares curvature IPOPT converges with in a few iterations here.
         """
-        x = ca.MX.sym("x", self.p)
         lam_f = ca.MX.sym("lam_f")
-        lam_g = ca.MX.sym("lam_g", n_constraints)
         hessian = lam_f * self.gauss_newton_map(x, self.data, ca.DM(sigma), self.references) / self.n
-        return ca.Function("nlp_hess_l", [x, ca.MX.sym("p", 0), lam_f, lam_g], [ca.triu(hessian)],
+        return ca.Function("nlp_hess_l", [x, ca.MX.sym("p", 0), lam_f, ca.MX.sym("lam_g", 0)], [ca.triu(hessian)],
                            ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
 
     def solve(self, xi0, sigma, max_iterations: int, print_level: int = 0,
               warm: bool = False) -> tuple[np.ndarray, int, str]:
-        opti = ca.Opti()
-        xi = opti.variable(self.p)
-        opti.minimize(self.cost_map(xi, self.data, ca.DM(sigma), self.references) / self.n)
+        # nlpsol with the bounds as IPOPT's variable bounds: an Opti with the same problem spends
+        # about 0.2 s per solve building its constraint functions
+        xi = ca.MX.sym("xi", self.p)
+        cost = self.cost_map(xi, self.data, ca.DM(sigma), self.references) / self.n
         lower, upper = self.layout.bounds()
-        n_constraints = 0
-        for k in range(self.p):
-            if np.isfinite(lower[k]):
-                opti.subject_to(xi[k] >= lower[k])
-                n_constraints += 1
-            if np.isfinite(upper[k]):
-                opti.subject_to(xi[k] <= upper[k])
-                n_constraints += 1
-        opti.set_initial(xi, xi0)
-        opti.solver("ipopt", {"print_time": False, "hess_lag": self._hessian(sigma, n_constraints)},
-                    {"print_level": int(print_level), "sb": "yes", "max_iter": int(max_iterations), "tol": 1e-8,
-                     "acceptable_tol": 1e-5, "acceptable_iter": 2, **(_WARM_START if warm else {})})
-        try:
-            solution = opti.solve()
-            stats = solution.stats()
-            value = solution.value(xi)
-        except RuntimeError:
-            stats = opti.stats()
-            value = opti.debug.value(xi)
-        status = str(stats.get("return_status"))
-        return np.atleast_1d(np.asarray(value, dtype=float)), int(stats.get("iter_count", 0)), status
+        solver = ca.nlpsol("identification", "ipopt", {"x": xi, "f": cost}, {
+            "print_time": False, "hess_lag": self._hessian(xi, sigma),
+            "ipopt": {"print_level": int(print_level), "sb": "yes", "max_iter": int(max_iterations), "tol": 1e-8,
+                      "acceptable_tol": 1e-5, "acceptable_iter": 2, **(_WARM_START if warm else {})}})
+        solution = solver(x0=np.asarray(xi0, dtype=float), lbx=lower, ubx=upper)
+        stats = solver.stats()
+        value = np.asarray(solution["x"], dtype=float).ravel()
+        return value, int(stats.get("iter_count", 0)), str(stats.get("return_status"))
 
 
 def _channel_rms(residuals: np.ndarray, used: np.ndarray) -> np.ndarray:
