@@ -208,6 +208,22 @@ def test_a_parameter_the_data_cannot_determine_is_flagged(covariance):
     assert stiffness.standard_error / stiffness.value < 0.01 * 0.5
 
 
+def test_an_unconverged_fit_warns_and_reports_its_last_iterate(simulated):
+    params, recording = simulated
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = identify(recording, effects=MODEL, base=recovery_start(params), max_iterations=2,
+                          reweight_passes=0)
+    assert any("IPOPT did not converge" in str(w.message) for w in caught), [str(w.message) for w in caught]
+    assert not result.report.converged
+    assert result.report.solver_status == "Maximum_Iterations_Exceeded"
+    assert result.report.iterations == 2
+    assert all(np.isfinite(e.value) for e in result.estimates)
+    # two steps from the start leave the joints far from what the converged fit reproduces
+    converged = identify(recording, effects=MODEL, base=recovery_start(params))
+    assert np.all(result.report.joint_rmse > 2 * converged.report.joint_rmse)
+
+
 @pytest.mark.parametrize("kwargs, message", [
     ({"effects": ("backlash",)}, "cannot identify effects"),
     ({"fixed": ("cable_stretch.stifness",)}, "unknown parameter"),

@@ -1,4 +1,4 @@
-"""Identification of the RAVEN-II cable transmission from logged data (casadi, Opti + IPOPT).
+"""Identification of the RAVEN-II cable transmission from logged data (casadi nlpsol + IPOPT).
 
 :func:`identify` fits the cable model of the positioning joints (hardening stiffness law, damping,
 Coulomb and viscous friction, gravity load scale, coupling) and the session's joint offsets to a log

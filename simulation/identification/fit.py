@@ -1,4 +1,4 @@
-"""casadi (Opti + IPOPT) identification of the cable transmission of the positioning joints.
+"""casadi (nlpsol + IPOPT) identification of the cable transmission of the positioning joints.
 
 :func:`identify` fits the parameters of the chosen effects (cable stiffness law, damping, friction,
 gravity load scale, coupling) and the session's joint offsets to a log with ground-truth joints,
