@@ -187,6 +187,7 @@ class _SeriesMemo:
         self._size = size
         self._max_bytes = max_bytes
         self._bytes = 0
+        self._count = 0
         self._results: OrderedDict[tuple, list] = OrderedDict()
 
     @staticmethod
@@ -214,10 +215,11 @@ class _SeriesMemo:
         self._results.setdefault(key, []).append((copies, result))
         self._results.move_to_end(key)
         self._bytes += _nbytes(copies, result)
-        while self._results and (self._bytes > self._max_bytes
-                                 or sum(len(entries) for entries in self._results.values()) > self._size):
+        self._count += 1
+        while self._results and (self._bytes > self._max_bytes or self._count > self._size):
             oldest = next(iter(self._results))
             self._bytes -= _nbytes(*self._results[oldest].pop(0))
+            self._count -= 1
             if not self._results[oldest]:
                 del self._results[oldest]
         return result
