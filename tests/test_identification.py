@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import warnings
 
 import numpy as np
@@ -222,6 +223,37 @@ def test_an_unconverged_fit_warns_and_reports_its_last_iterate(simulated):
     # two steps from the start leave the joints far from what the converged fit reproduces
     converged = identify(recording, effects=MODEL, base=recovery_start(params))
     assert np.all(result.report.joint_rmse > 2 * converged.report.joint_rmse)
+
+
+def test_a_kept_solver_fits_each_log_as_a_solver_built_for_it_does(monkeypatch):
+    # the solvers of a structure are kept and take the data as a parameter: a second log of the
+    # same length must be fitted to its own numbers, exactly as by a solver built for it alone
+    from simulation.identification import fit
+
+    law = RavenParameters().effect("cable_stretch").replace(damping=np.zeros(3))
+    params = RavenParameters().only(*MODEL).with_effect(law)
+    stiffer = params.with_effect(law.replace(stiffness=1.5 * law.stiffness))
+    first, second = (model_log(p, 30.0, 30.0, 0.5) for p in (params, stiffer))
+    built = []
+    original = fit.ca.nlpsol
+    monkeypatch.setattr(fit.ca, "nlpsol", lambda *a, **k: built.append(a[0]) or original(*a, **k))
+    monkeypatch.setattr(fit, "_CACHES", threading.local())
+
+    def fitted(log):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PoorlyIdentifiedWarning)
+            return identify(log, effects=MODEL, base=recovery_start(params))
+
+    a, b = fitted(first), fitted(second)
+    assert len(built) == 2  # a first pass and a reweighting pass, built once for both logs
+    monkeypatch.setattr(fit, "_CACHES", threading.local())
+    alone = fitted(second)
+    assert len(built) == 4
+    assert [e.value for e in b.estimates] == [e.value for e in alone.estimates]
+    assert [e.standard_error for e in b.estimates] == [e.standard_error for e in alone.estimates]
+    k = "cable_stretch.stiffness[shoulder]"
+    assert b.estimate(k).value == pytest.approx(1.5 * a.estimate(k).value, rel=0.05)
+    assert b.estimate(k).value == pytest.approx(1.5 * true_value(params, k), rel=0.05)
 
 
 @pytest.mark.parametrize("kwargs, message", [

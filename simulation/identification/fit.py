@@ -27,8 +27,11 @@ the truth on the virtual RAVEN-II, which can be a few standard errors on long lo
 
 from __future__ import annotations
 
+import threading
 import time
 import warnings
+from collections import OrderedDict
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -55,7 +58,7 @@ from simulation.identification.layout import (
     ParameterLayout,
     build_layout,
 )
-from simulation.identification.compiled import sample_functions
+from simulation.identification.compiled import SampleFunctions, sample_functions
 from simulation.identification.residuals import D_GRAVITY, D_INERTIAL, D_Q, D_QD, D_TAU, D_U, D_UD, D_UDD, D_WQ, D_WT, N_DATA, residual_function
 from simulation.identification.result import FitReport, IdentificationResult, NotIdentifiableError, ParameterEstimate, PoorlyIdentifiedWarning
 from simulation.identification.samples import DERIVATIVE_WINDOW, IdentificationSamples, prepare_samples
@@ -161,6 +164,91 @@ uninformed start, keeps the monotone update: adaptive from there, the capstan lo
 200-iteration limit."""
 
 
+@dataclass(frozen=True)
+class _SampleMaps:
+    """The per-sample functions mapped over ``n`` samples; the unknowns, the channel scales and the
+    references are shared by every sample, the data matrix has one column per sample."""
+
+    cost: ca.Function
+    gauss_newton: ca.Function
+    residual: ca.Function
+    jacobian: ca.Function
+
+
+_CACHE_SIZE = 16
+"""Mapped functions and solvers kept per thread, the most recently used first. The discrepancy
+workflow re-identifies one structure on one record many times (about twenty fits per analysis);
+building the maps and the solver (with the derivatives casadi derives for it) took a quarter of
+each fit."""
+_CACHES = threading.local()
+"""Each thread keeps its own: a solver's statistics are those of its last call."""
+
+
+def _cache(name: str) -> OrderedDict:
+    if not hasattr(_CACHES, name):
+        setattr(_CACHES, name, OrderedDict())
+    return getattr(_CACHES, name)
+
+
+def _remembered(cache: OrderedDict, functions: SampleFunctions, key: tuple, build):
+    """``build()`` for ``functions`` and ``key``, or the value remembered for them."""
+    key = (id(functions),) + key
+    if key in cache:
+        cache.move_to_end(key)
+        return cache[key][1]
+    value = build()
+    # the functions stay alive beside the value, so their id is not reused while the entry lives
+    cache[key] = (functions, value)
+    while len(cache) > _CACHE_SIZE:
+        cache.popitem(last=False)
+    return value
+
+
+def _sample_maps(functions: SampleFunctions, n: int) -> _SampleMaps:
+    def build():
+        shared = [0, 2, 3]
+        return _SampleMaps(cost=functions.cost.map("cost_map", "serial", n, shared, [0]),
+                           gauss_newton=functions.gauss_newton.map("gauss_newton_map", "serial", n, shared, [0]),
+                           residual=functions.residual.map("residual_map", "serial", n, shared, []),
+                           jacobian=functions.jacobian.map("jacobian_map", "serial", n, shared, []))
+
+    return _remembered(_cache("maps"), functions, (n,), build)
+
+
+def _solver(functions: SampleFunctions, n: int, max_iterations: int, print_level: int, warm: bool) -> ca.Function:
+    """IPOPT on the mean sample cost, with the data, the channel scales and the references as the
+    problem's parameter vector ``[vec(data); sigma; references]`` (data column by column), so that
+    one solver serves every fit of a structure to a record of ``n`` samples.
+
+    The bounds are IPOPT's own variable bounds (an ``Opti`` with the same problem spends about
+    0.2 s per solve building constraint functions). The Hessian of the Lagrangian is the
+    Gauss-Newton ``J^T J / n``: one Jacobian pass instead of the exact Hessian's ``p``
+    second-order passes, and the least-squares curvature IPOPT converges with in a few iterations
+    here.
+    """
+    def build():
+        maps = _sample_maps(functions, n)
+        p, rows, n_sigma, n_references = (functions.cost.size1_in(i) for i in range(4))
+        xi = ca.MX.sym("xi", p)
+        parameters = ca.MX.sym("p", rows * n + n_sigma + n_references)
+        data = ca.reshape(parameters[:rows * n], rows, n)
+        sigma = parameters[rows * n:rows * n + n_sigma]
+        references = parameters[rows * n + n_sigma:]
+        lam_f = ca.MX.sym("lam_f")
+        hessian = ca.Function(
+            "nlp_hess_l", [xi, parameters, lam_f, ca.MX.sym("lam_g", 0)],
+            [ca.triu(lam_f * maps.gauss_newton(xi, data, sigma, references) / n)],
+            ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+        return ca.nlpsol("identification", "ipopt",
+                         {"x": xi, "p": parameters, "f": maps.cost(xi, data, sigma, references) / n}, {
+                             "print_time": False, "hess_lag": hessian,
+                             "ipopt": {"print_level": int(print_level), "sb": "yes", "max_iter": int(max_iterations),
+                                       "tol": 1e-8, "acceptable_tol": 1e-5, "acceptable_iter": 2,
+                                       **(_WARM_START if warm else {})}})
+
+    return _remembered(_cache("solvers"), functions, (n, int(max_iterations), int(print_level), bool(warm)), build)
+
+
 class _Problem:
     """The residuals of one fit as fast casadi maps over the samples."""
 
@@ -169,46 +257,26 @@ class _Problem:
         self.layout = layout
         self.n = data.shape[1]
         self.p = len(layout)
-        self.data = ca.DM(data)
-        functions = sample_functions(residual_function(layout, params.constants, velocity_scale))
-        self.references = ca.DM(layout.references())
-        self.cost_map = functions.cost.map("cost_map", "serial", self.n, [0, 2, 3], [0])
-        self.gauss_newton_map = functions.gauss_newton.map("gauss_newton_map", "serial", self.n, [0, 2, 3], [0])
-        self.residual_map = functions.residual.map("residual_map", "serial", self.n, [0, 2, 3], [])
-        self.jacobian_map = functions.jacobian.map("jacobian_map", "serial", self.n, [0, 2, 3], [])
+        self.data = np.asarray(data, dtype=float)
+        self.functions = sample_functions(residual_function(layout, params.constants, velocity_scale))
+        self.maps = _sample_maps(self.functions, self.n)
+        self.references = layout.references()
 
     def residuals(self, xi, sigma) -> np.ndarray:
         """(n, 6) weighted, scaled residuals."""
-        return np.array(self.residual_map(xi, self.data, sigma, self.references)).T
+        return np.array(self.maps.residual(xi, self.data, sigma, self.references)).T
 
     def jacobian(self, xi, sigma) -> np.ndarray:
         """(n, 6, p) Jacobian of the residuals with respect to the unknowns."""
-        blocks = np.array(self.jacobian_map(xi, self.data, sigma, self.references))
+        blocks = np.array(self.maps.jacobian(xi, self.data, sigma, self.references))
         return blocks.reshape(6, self.n, self.p).transpose(1, 0, 2)
-
-    def _hessian(self, x: ca.MX, sigma: np.ndarray) -> ca.Function:
-        """Gauss-Newton Hessian of the Lagrangian, ``J^T J / n`` (the bounds are IPOPT's own).
-
-        It costs one Jacobian pass instead of the exact Hessian's ``p`` second-order passes, and is
-        the least-squares curvature IPOPT converges with in a few iterations here.
-        """
-        lam_f = ca.MX.sym("lam_f")
-        hessian = lam_f * self.gauss_newton_map(x, self.data, ca.DM(sigma), self.references) / self.n
-        return ca.Function("nlp_hess_l", [x, ca.MX.sym("p", 0), lam_f, ca.MX.sym("lam_g", 0)], [ca.triu(hessian)],
-                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
 
     def solve(self, xi0, sigma, max_iterations: int, print_level: int = 0,
               warm: bool = False) -> tuple[np.ndarray, int, str]:
-        # nlpsol with the bounds as IPOPT's variable bounds: an Opti with the same problem spends
-        # about 0.2 s per solve building its constraint functions
-        xi = ca.MX.sym("xi", self.p)
-        cost = self.cost_map(xi, self.data, ca.DM(sigma), self.references) / self.n
+        solver = _solver(self.functions, self.n, max_iterations, print_level, warm)
         lower, upper = self.layout.bounds()
-        solver = ca.nlpsol("identification", "ipopt", {"x": xi, "f": cost}, {
-            "print_time": False, "hess_lag": self._hessian(xi, sigma),
-            "ipopt": {"print_level": int(print_level), "sb": "yes", "max_iter": int(max_iterations), "tol": 1e-8,
-                      "acceptable_tol": 1e-5, "acceptable_iter": 2, **(_WARM_START if warm else {})}})
-        solution = solver(x0=np.asarray(xi0, dtype=float), lbx=lower, ubx=upper)
+        parameters = np.concatenate([self.data.ravel(order="F"), np.asarray(sigma, dtype=float), self.references])
+        solution = solver(x0=np.asarray(xi0, dtype=float), p=parameters, lbx=lower, ubx=upper)
         stats = solver.stats()
         value = np.asarray(solution["x"], dtype=float).ravel()
         return value, int(stats.get("iter_count", 0)), str(stats.get("return_status"))
