@@ -56,8 +56,8 @@ class WorkflowSettings:
     min_improvement : ... and by at least this much in absolute terms (deg/mm pooled). On four
         minutes of data with nothing hidden (5 seeds) no candidate cut the validation gap by more
         than 0.00025; the floor is four times that. (It was 0.004, the size of that gap itself,
-        until a sweep showed it kept the default backlash, which closes 0.0013 to 0.0042 of a
-        0.005 to 0.009 gap, from being named on any seed where it was fitted.)
+        until a sweep showed it refusing a default backlash, which cuts 0.0013 to 0.0042 off a
+        gap of 0.005 to 0.009, on a seed where its fit had the lowest BIC.)
     unexplained_floor : a final validation gap above this (deg/mm pooled) is flagged unexplained
         when no candidate helps any more; set from the ground-truth encoders' resolution and the
         replay's own accuracy on data with nothing missing (about 0.01 on the virtual RAVEN-II).
