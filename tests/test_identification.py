@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import threading
 import warnings
 
 import numpy as np
@@ -237,7 +236,7 @@ def test_a_kept_solver_fits_each_log_as_a_solver_built_for_it_does(monkeypatch):
     built = []
     original = fit.ca.nlpsol
     monkeypatch.setattr(fit.ca, "nlpsol", lambda *a, **k: built.append(a[0]) or original(*a, **k))
-    monkeypatch.setattr(fit, "_CACHES", threading.local())
+    monkeypatch.setattr(fit, "_CACHES", fit._Caches())
 
     def fitted(log):
         with warnings.catch_warnings():
@@ -246,7 +245,7 @@ def test_a_kept_solver_fits_each_log_as_a_solver_built_for_it_does(monkeypatch):
 
     a, b = fitted(first), fitted(second)
     assert len(built) == 2  # a first pass and a reweighting pass, built once for both logs
-    monkeypatch.setattr(fit, "_CACHES", threading.local())
+    monkeypatch.setattr(fit, "_CACHES", fit._Caches())
     alone = fitted(second)
     assert len(built) == 4
     assert [e.value for e in b.estimates] == [e.value for e in alone.estimates]
