@@ -268,6 +268,28 @@ def test_generic_data_with_a_dead_band_names_backlash():
     np.testing.assert_allclose(result.fitted_parameters["backlash"]["half_width"], half, rtol=0.1)
 
 
+def test_the_fit_budget_reaches_the_candidate_fits_and_is_checked():
+    # one IPOPT iteration leaves the play where the screen put it; the default budget recovers it
+    from simulation.discrepancy import WorkflowSettings
+    from simulation.discrepancy.replay import play_series
+
+    time, reported, rng = _generic_record()
+    half = np.deg2rad([0.5, 0.3])
+    first = np.r_[True, np.zeros(len(time) - 1, bool)]
+    truth = np.column_stack([play_series(np.ascontiguousarray(reported[:, j]), half[j], first) for j in range(2)])
+    truth = truth + 0.01 + rng.normal(0, 1e-4, truth.shape)
+    runs = {n: run_on_generic(time, reported, truth, ("a", "b"), ("rad", "rad"),
+                              settings=WorkflowSettings(fit_iterations=n))[0] for n in (1, 30)}
+    assert WorkflowSettings().fit_iterations == 30
+    short = np.array(runs[1].fitted_parameters["backlash"]["half_width"])
+    assert np.max(np.abs(short / half - 1)) > 0.3, short
+    np.testing.assert_allclose(runs[30].fitted_parameters["backlash"]["half_width"], half, rtol=0.1)
+    assert runs[30].iterations[0].scores[0].bic < runs[1].iterations[0].scores[0].bic
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="fit_iterations must be a positive integer"):
+            WorkflowSettings(fit_iterations=bad)
+
+
 def test_localization_finds_a_residual_that_flips_with_direction():
     time, reported, rng = _generic_record(seed=1)
     signals = MeasuredSignals.generic(time, reported, reported, ("a", "b"), ("rad", "rad"))
