@@ -252,16 +252,21 @@ def _generic_record(seed=0, n=3000):
     return time, reported, rng
 
 
-def test_generic_data_with_a_dead_band_names_backlash():
-    # a robot known only by reported and measured joints: the measured joint trails the reported
-    # one by a play of 0.5 deg that reverses with the motion (plus encoder noise)
+def _dead_band_record():
+    """A robot known only by reported and measured joints: the measured joint trails the reported
+    one by a play of 0.5 and 0.3 deg that reverses with the motion (plus encoder noise).
+    Returns time, reported, truth and the half-widths (rad)."""
     from simulation.discrepancy.replay import play_series
 
     time, reported, rng = _generic_record()
     half = np.deg2rad([0.5, 0.3])
     first = np.r_[True, np.zeros(len(time) - 1, bool)]
     truth = np.column_stack([play_series(np.ascontiguousarray(reported[:, j]), half[j], first) for j in range(2)])
-    truth = truth + 0.01 + rng.normal(0, 1e-4, truth.shape)
+    return time, reported, truth + 0.01 + rng.normal(0, 1e-4, truth.shape), half
+
+
+def test_generic_data_with_a_dead_band_names_backlash():
+    time, reported, truth, half = _dead_band_record()
     result, _, _ = run_on_generic(time, reported, truth, ("a", "b"), ("rad", "rad"))
     assert result.named_effects[:1] == ("backlash",), result.named_effects
     assert result.shrink >= 0.8
@@ -271,13 +276,8 @@ def test_generic_data_with_a_dead_band_names_backlash():
 def test_the_fit_budget_reaches_the_candidate_fits_and_is_checked():
     # one IPOPT iteration leaves the play where the screen put it; the default budget recovers it
     from simulation.discrepancy import WorkflowSettings
-    from simulation.discrepancy.replay import play_series
 
-    time, reported, rng = _generic_record()
-    half = np.deg2rad([0.5, 0.3])
-    first = np.r_[True, np.zeros(len(time) - 1, bool)]
-    truth = np.column_stack([play_series(np.ascontiguousarray(reported[:, j]), half[j], first) for j in range(2)])
-    truth = truth + 0.01 + rng.normal(0, 1e-4, truth.shape)
+    time, reported, truth, half = _dead_band_record()
     runs = {n: run_on_generic(time, reported, truth, ("a", "b"), ("rad", "rad"),
                               settings=WorkflowSettings(fit_iterations=n))[0] for n in (1, 30)}
     assert WorkflowSettings().fit_iterations == 30
