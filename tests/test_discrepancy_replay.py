@@ -121,3 +121,31 @@ def test_remembered_cable_series_are_those_of_a_fresh_run_and_follow_every_input
     np.testing.assert_array_equal(changed.joints, fresh_changed.joints)
     assert np.max(np.abs(changed.joints[:, 1] - first.joints[:, 1])) > 1e-6
     np.testing.assert_array_equal(changed.joints[:, [0, 2]], first.joints[:, [0, 2]])
+
+
+def _bouc_wen_sub_steps(z, change, beta, gamma):
+    """The replay's explicit Euler sub-steps of the Bouc-Wen state, one by one (at most a tenth of
+    the width ``1 / (beta + gamma)`` each): dz/ds = 1 - beta sgn(ds) z - gamma |z|."""
+    steps = 1 + int(abs(change) * (beta + gamma) * 10.0)
+    ds = change / steps
+    for _ in range(steps):
+        z += ds * (1.0 - beta * np.sign(ds) * z - gamma * abs(z))
+    return z
+
+
+@pytest.mark.parametrize("widths", [0.01, 0.3, 2.0, 40.0, 3000.0])
+@pytest.mark.parametrize("start", [-0.9, -0.2, 0.0, 0.5, 0.99])
+@pytest.mark.parametrize("direction", [1.0, -1.0])
+def test_the_hysteresis_state_after_a_long_stretch_change_is_its_sub_steps_summed(widths, start, direction):
+    from simulation.discrepancy.replay import _bouc_wen_after
+
+    width = 2e-5  # a fitted width near the candidate's lower bound, where a sample moves many widths
+    beta, gamma = 0.3 / width, 0.7 / width
+    z0 = start * width
+    change = direction * widths * width
+    z = _bouc_wen_after(z0, change, beta, gamma)
+    assert z == pytest.approx(_bouc_wen_sub_steps(z0, change, beta, gamma), rel=1e-12, abs=1e-12 * width)
+    if widths >= 40.0:
+        # many widths on, the state sits at its bound on the side of the motion
+        assert z == pytest.approx(direction * width, rel=1e-12)
+    assert _bouc_wen_after(z0, 0.0, beta, gamma) == z0
