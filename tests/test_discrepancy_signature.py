@@ -148,3 +148,42 @@ def test_virtual_raven_capstan_runout_reads_as_periodic_in_a_motor_angle(raven_c
     assert "motor angle at the capstan, one cycle per revolution" in signature.sentences()[0]
     rotary = [t for t in signature.leading() if t.kind == "motor harmonic" and t.joint == t.source and t.unit == "rad"]
     assert rotary and all(t.amplitude == pytest.approx(1e-3, rel=0.25) for t in rotary)
+
+
+def test_a_repeating_runout_is_predicted_on_blocks_left_out_by_its_share():
+    from simulation.discrepancy.signature import residual_structure
+
+    s = synthetic_signals(12)
+    residual = noise(s, 13)
+    amplitude = 3e-5  # rad: as large as the noise
+    residual[:, 1] += amplitude * np.sin(capstan_angle(s)[:, 1] + 1.0)
+    check = residual_structure(s, residual)
+    # what a sinusoid can explain of sinusoid plus white noise: (A^2 / 2) / (A^2 / 2 + sigma^2)
+    expected = amplitude ** 2 / 2 / (amplitude ** 2 / 2 + 2e-5 ** 2)
+    # a fit to 7/8 of a minute predicts a little less than the whole share, never more
+    assert expected - 0.15 <= check.explained[1] <= expected + 0.05, check.explained[1]
+    assert check.rms_after[1] < check.rms_before[1]
+    assert check.explained[0] < 0.1 and check.explained[2] < 0.1
+
+
+def test_noise_and_steps_between_blocks_have_no_repeatable_structure():
+    from simulation.discrepancy.signature import residual_structure
+
+    for seed in (14, 15, 16):
+        s = synthetic_signals(seed)
+        residual = noise(s, seed + 10)
+        # an offset that jumps once per block: each block's mean is left out, so nothing repeats
+        block = np.minimum(np.arange(len(s)) * 8 // len(s), 7)
+        residual[:, 0] += 1e-4 * np.random.default_rng(seed).standard_normal(8)[block]
+        check = residual_structure(s, residual, folds=8)
+        assert np.all(check.explained < 0.1), check.explained
+        assert check.folds == 8
+
+
+@pytest.mark.parametrize("folds", [1, 0, 2.5, True])
+def test_the_structure_check_refuses_a_bad_number_of_blocks(folds):
+    from simulation.discrepancy.signature import residual_structure
+
+    s = synthetic_signals()
+    with pytest.raises(ValueError, match="folds must be an integer of at least 2"):
+        residual_structure(s, noise(s, 1), folds=folds)

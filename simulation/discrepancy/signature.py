@@ -321,25 +321,8 @@ def describe_residual(signals: MeasuredSignals, residual, shaft_ratio=None,
     """
     import pysindy as ps
 
-    residual = np.asarray(residual, dtype=float)
-    n, j = len(signals), signals.n_joints
-    if residual.ndim != 2 or residual.shape != (n, j):
-        raise ValueError(f"residual must have shape {(n, j)} (samples x joints of the signals), got {residual.shape}")
-    if not np.all(np.isfinite(residual)):
-        bad = int(np.argmax(~np.isfinite(residual).all(axis=1)))
-        raise ValueError(f"residual is not finite at sample {bad}")
-    if shaft_ratio is None:
-        shaft_ratio = default_shaft_ratio(signals)
-    else:
-        shaft_ratio = np.asarray(shaft_ratio, dtype=float)
-        if shaft_ratio.shape != (j,) or not np.all(np.isfinite(shaft_ratio)) or np.any(shaft_ratio <= 0):
-            raise ValueError(f"shaft_ratio must be {j} positive finite values, got {shaft_ratio}")
-
-    matrix, columns, stds = _standardized(term_library(signals, shaft_ratio, settings.harmonics),
-                                                 settings.min_novelty)
-    if n < settings.min_samples_per_column * len(columns):
-        raise ValueError(f"a signature over {len(columns)} library columns needs at least "
-                         f"{settings.min_samples_per_column * len(columns)} samples, got {n}")
+    residual, matrix, columns, stds = _library_matrix(signals, residual, shaft_ratio, settings)
+    n, j = residual.shape
     duration = float(signals.time[-1] - signals.time[0])
     to_report = report_scale(signals.units)
 
@@ -383,6 +366,117 @@ def describe_residual(signals: MeasuredSignals, residual, shaft_ratio=None,
     return Signature(terms=tuple(terms) + tuple(offsets), explained=tuple(explained),
                      joint_names=tuple(signals.joint_names), units=tuple(signals.units),
                      min_share=settings.min_share, columns=tuple(c.label for c in columns))
+
+
+def _library_matrix(signals: MeasuredSignals, residual, shaft_ratio, settings: SignatureSettings):
+    """The checked residual (N, J) and the standardized library matrix, its columns and their stds."""
+    residual = np.asarray(residual, dtype=float)
+    n, j = len(signals), signals.n_joints
+    if residual.ndim != 2 or residual.shape != (n, j):
+        raise ValueError(f"residual must have shape {(n, j)} (samples x joints of the signals), got {residual.shape}")
+    if not np.all(np.isfinite(residual)):
+        bad = int(np.argmax(~np.isfinite(residual).all(axis=1)))
+        raise ValueError(f"residual is not finite at sample {bad}")
+    if shaft_ratio is None:
+        shaft_ratio = default_shaft_ratio(signals)
+    else:
+        shaft_ratio = np.asarray(shaft_ratio, dtype=float)
+        if shaft_ratio.shape != (j,) or not np.all(np.isfinite(shaft_ratio)) or np.any(shaft_ratio <= 0):
+            raise ValueError(f"shaft_ratio must be {j} positive finite values, got {shaft_ratio}")
+    matrix, columns, stds = _standardized(term_library(signals, shaft_ratio, settings.harmonics),
+                                          settings.min_novelty)
+    if n < settings.min_samples_per_column * len(columns):
+        raise ValueError(f"a signature over {len(columns)} library columns needs at least "
+                         f"{settings.min_samples_per_column * len(columns)} samples, got {n}")
+    return residual, matrix, columns, stds
+
+
+def enough_samples(signals: MeasuredSignals, folds: int = 1, shaft_ratio=None,
+                   settings: SignatureSettings = SignatureSettings()) -> bool:
+    """Whether ``signals`` are long enough for a signature (``folds=1``) or for
+    :func:`residual_structure` over ``folds`` blocks: each fit needs ``min_samples_per_column``
+    samples per library column."""
+    if shaft_ratio is None:
+        shaft_ratio = default_shaft_ratio(signals)
+    _, columns, _ = _standardized(term_library(signals, shaft_ratio, settings.harmonics), settings.min_novelty)
+    fitted = len(signals) * (folds - 1) // folds if folds > 1 else len(signals)
+    return fitted >= settings.min_samples_per_column * len(columns)
+
+
+@dataclass(frozen=True)
+class StructureCheck:
+    """How much of a residual the generic library predicts on data it was not fitted to.
+
+    Attributes
+    ----------
+    explained : (J,) fraction of each joint's residual variance about its block means that the
+        sparse fit predicts on the block left out, over every block in turn (negative when the
+        fit predicts worse than the block means).
+    rms_before : (J,) RMS of the residual about its block means (SI: rad or m).
+    rms_after : (J,) RMS of what the predictions leave (SI).
+    folds : the number of contiguous blocks.
+    """
+
+    explained: np.ndarray
+    rms_before: np.ndarray
+    rms_after: np.ndarray
+    folds: int
+
+
+def residual_structure(signals: MeasuredSignals, residual, folds: int = 8, shaft_ratio=None,
+                       settings: SignatureSettings = SignatureSettings()) -> StructureCheck:
+    """Cross-validate the signature's sparse fit: is there structure in ``residual`` that repeats?
+
+    The record is cut into ``folds`` contiguous blocks in time; each block's residual is predicted
+    by the sparse fit (as in :func:`describe_residual`, the same library and STLSQ settings) to the
+    other blocks. The residual and the library columns are taken about their block means (each
+    block has its own offset, as the workflow profiles constant offsets out of every part), so that
+    a wander between blocks counts as nothing. Noise, or a
+    fit that only follows it, predicts nothing on a new block; an effect the model lacks (an
+    eccentric capstan, a load dependence) predicts the same way on every block.
+
+    Parameters
+    ----------
+    signals, residual, shaft_ratio, settings : as for :func:`describe_residual`.
+    folds : number of contiguous blocks (at least 2).
+
+    Returns
+    -------
+    StructureCheck
+    """
+    import pysindy as ps
+
+    if isinstance(folds, bool) or int(folds) != folds or folds < 2:
+        raise ValueError(f"folds must be an integer of at least 2, got {folds!r}")
+    residual, matrix, _, _ = _library_matrix(signals, residual, shaft_ratio, settings)
+    n, j = residual.shape
+    block = np.minimum((np.arange(n) * int(folds)) // n, int(folds) - 1)
+    # within each block, the residual and every column about their block means (the blocks' offsets
+    # are free, as a fixed-effects regression has them)
+    centred, columns = residual.copy(), matrix
+    for k in range(int(folds)):
+        rows = block == k
+        centred[rows] -= residual[rows].mean(axis=0)
+    predicted = np.zeros_like(residual)
+    for k in range(int(folds)):
+        test = block == k
+        train = ~test
+        for jj in range(j):
+            y = centred[train, jj]
+            std = float(np.std(y))
+            if std <= 0.0:
+                continue
+            optimizer = ps.STLSQ(threshold=settings.threshold, alpha=settings.alpha * int(train.sum()), unbias=True)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                optimizer.fit(columns[train], y / std)
+            guess = columns[test] @ np.asarray(optimizer.coef_, dtype=float).reshape(-1) * std
+            predicted[test, jj] = guess - guess.mean()
+    before = np.sqrt(np.mean(centred ** 2, axis=0))
+    after = np.sqrt(np.mean((centred - predicted) ** 2, axis=0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        explained = np.where(before > 0, 1.0 - (after / np.where(before > 0, before, 1.0)) ** 2, 0.0)
+    return StructureCheck(explained=explained, rms_before=before, rms_after=after, folds=int(folds))
 
 
 def _greedy_shares(matrix: np.ndarray, target: np.ndarray, groups: dict[str, list[int]]) -> dict[str, float]:
