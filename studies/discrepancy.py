@@ -305,8 +305,10 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         *([] if result.residual_structure is None else [
             "- repeatable structure of the residual with nothing named (share of each joint's variance the "
             f"generic term library predicts on blocks it was not fitted to; flagged at "
-            f"{100 * WorkflowSettings().structure_share:.0f} % or more): "
-            + ", ".join(f"{name} {100 * v:.0f} %" for name, v in zip(result.joint_names, result.residual_structure))]),
+            f"{100 * WorkflowSettings().structure_share:.0f} % or more; 0 % where the library predicts no "
+            "better than each block's mean): "
+            + ", ".join(f"{name} {100 * max(v, 0.0):.0f} %" for name, v in zip(result.joint_names,
+                                                                            result.residual_structure))]),
         f"- held-out gap shrink (pooled RMSE, deg and mm): {100 * result.shrink:.1f} %",
         f"- run: {document['created']}, {runtime_s:.0f} s",
         "",
@@ -544,7 +546,7 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
     run_rows = [[r["hidden"], str(r["seed"]), ", ".join(r["named"]) or ("unexplained" if r["unexplained"] else "none"),
                  "; ".join(f"{k} = {', '.join(v)}" for k, v in r["equivalent"].items()), r["gap_before"],
                  100 * r["shrink"], 100 * r["oracle_shrink"],
-                 "-" if r.get("residual_structure") is None else f"{100 * max(r['residual_structure']):.0f}"]
+                 "-" if r.get("residual_structure") is None else f"{100 * max(max(r['residual_structure']), 0.0):.0f}"]
                 for r in runs]
     sizes = "at their default sizes" if size_factor == 1.0 else f"at {size_factor:g} times their default sizes"
     text = "\n".join([
@@ -565,7 +567,8 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         markdown_table(["hidden \\ named"] + columns, rows, digits=0), "",
         "## Runs", "",
         "Structure %: with nothing named, the largest share of one joint's residual variance that the generic "
-        "term library predicts on blocks it was not fitted to (flagged unexplained at "
+        "term library predicts on blocks it was not fitted to (0 where it predicts no better than the blocks' "
+        "means; flagged unexplained at "
         f"{100 * WorkflowSettings().structure_share:.0f} % or more).", "",
         markdown_table(["hidden", "seed", "named", "indistinguishable", "gap", "shrink %", "oracle shrink %",
                         "structure %"], run_rows, digits=4),

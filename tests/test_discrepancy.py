@@ -138,6 +138,11 @@ def test_nothing_hidden_names_nothing(cli_runs):
     # the identified nominal model already reproduces the data to the encoders' resolution
     assert np.all(np.array(report["gap_before"]) < np.array([2e-4, 2e-4, 1e-5])), report["gap_before"]
     assert report["hidden_effect"] == [] and report["oracle_shrink"] == pytest.approx(0.0)
+    # nothing named: the residual was checked for structure that repeats, and none was found
+    assert len(report["residual_structure"]) == 3
+    assert max(report["residual_structure"]) < WorkflowSettings().structure_share
+    text = (cli_runs("none") / "report.md").read_text()
+    assert "repeatable structure of the residual with nothing named" in text
 
 
 def test_an_effect_missing_from_the_library_is_unexplained_with_a_signature(cli_runs):
