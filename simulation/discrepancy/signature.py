@@ -429,10 +429,10 @@ def residual_structure(signals: MeasuredSignals, residual, folds: int = 8, shaft
 
     The record is cut into ``folds`` contiguous blocks in time; each block's residual is predicted
     by the sparse fit (as in :func:`describe_residual`, the same library and STLSQ settings) to the
-    other blocks. The residual and the library columns are taken about their block means (each
-    block has its own offset, as the workflow profiles constant offsets out of every part), so that
-    a wander between blocks counts as nothing. Noise, or a
-    fit that only follows it, predicts nothing on a new block; an effect the model lacks (an
+    other blocks. The residual is taken about each block's mean, and each prediction about its own
+    mean on the block it predicts (every block has its own offset, as the workflow profiles
+    constant offsets out of every part), so that a wander between blocks counts as nothing. Noise,
+    or a fit that only follows it, predicts nothing on a new block; an effect the model lacks (an
     eccentric capstan, a load dependence) predicts the same way on every block.
 
     Parameters
@@ -451,9 +451,7 @@ def residual_structure(signals: MeasuredSignals, residual, folds: int = 8, shaft
     residual, matrix, _, _ = _library_matrix(signals, residual, shaft_ratio, settings)
     n, j = residual.shape
     block = np.minimum((np.arange(n) * int(folds)) // n, int(folds) - 1)
-    # within each block, the residual and every column about their block means (the blocks' offsets
-    # are free, as a fixed-effects regression has them)
-    centred, columns = residual.copy(), matrix
+    centred = residual.copy()
     for k in range(int(folds)):
         rows = block == k
         centred[rows] -= residual[rows].mean(axis=0)
@@ -469,8 +467,8 @@ def residual_structure(signals: MeasuredSignals, residual, folds: int = 8, shaft
             optimizer = ps.STLSQ(threshold=settings.threshold, alpha=settings.alpha * int(train.sum()), unbias=True)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                optimizer.fit(columns[train], y / std)
-            guess = columns[test] @ np.asarray(optimizer.coef_, dtype=float).reshape(-1) * std
+                optimizer.fit(matrix[train], y / std)
+            guess = matrix[test] @ np.asarray(optimizer.coef_, dtype=float).reshape(-1) * std
             predicted[test, jj] = guess - guess.mean()
     before = np.sqrt(np.mean(centred ** 2, axis=0))
     after = np.sqrt(np.mean((centred - predicted) ** 2, axis=0))

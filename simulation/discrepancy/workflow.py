@@ -566,14 +566,15 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
     unexplained = bool(_validation_gap(on(model, split.validation), units) > settings.unexplained_floor)
     # what no candidate explains, checked and described where the model was fitted and chosen (contiguous)
     part = split.fit | split.validation
+    part_signals, left = signals.select(part), on(model, part).joints
     structure = None
-    if not named and enough_samples(signals.select(part), folds=settings.structure_folds):
-        check = residual_structure(signals.select(part), on(model, part).joints, folds=settings.structure_folds)
+    if not named and enough_samples(part_signals, folds=settings.structure_folds):
+        check = residual_structure(part_signals, left, folds=settings.structure_folds)
         structure = tuple(float(v) for v in check.explained)
         unexplained = unexplained or max(structure) >= settings.structure_share
     signature: tuple[str, ...] = ()
     if unexplained:
-        signature = tuple(describe_residual(signals.select(part), on(model, part).joints).sentences())
+        signature = tuple(describe_residual(part_signals, left).sentences())
     before = on(initial_model, split.held_out)
     after = on(model, split.held_out)
     pooled_before = pooled_rmse(before.joints, units)
