@@ -175,6 +175,33 @@ def file_digest(path: Path) -> str:
     return digest.hexdigest()
 
 
+def _command_shrink(result: DiscrepancyResult) -> float | None:
+    """1 - after/before of the controller replay's held-out command gap, pooled over the joints
+    (N m); None when the controller was not replayed."""
+    check = result.controller
+    if check is None:
+        return None
+    after = check.held_out_gap_after if check.named else check.held_out_gap_before
+    before = float(np.sqrt(np.mean(np.square(check.held_out_gap_before))))
+    return float(1.0 - np.sqrt(np.mean(np.square(after))) / before) if before > 0 else 0.0
+
+
+def _controller_document(result: DiscrepancyResult) -> dict | None:
+    """The controller replay's part of ``report.json`` (command gaps: RMS of logged minus replayed
+    command per joint, N m at the gearbox output), None when it did not run."""
+    check = result.controller
+    if check is None:
+        return None
+    after = check.held_out_gap_after if check.named else check.held_out_gap_before
+    return {"named": bool(check.named), "scale_error": [float(v) for v in check.scale_error],
+            "command_gap_before": [float(v) for v in check.held_out_gap_before],
+            "command_gap_after": [float(v) for v in after],
+            "fit_command_gap": [[float(v) for v in check.fit_gap_before], [float(v) for v in check.fit_gap_after]],
+            "validation_command_gap": [[float(v) for v in check.validation_gap_before],
+                                       [float(v) for v in check.validation_gap_after]],
+            "bic": [check.bic_before, check.bic_after], "units": "N m at the gearbox output"}
+
+
 def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
                     starting_structure=STARTING_STRUCTURE, analysis: str = "blind") -> dict:
     """``report.json``: what the analysis found, its starting point and library, the iterations."""
@@ -192,6 +219,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "equivalent": {k: list(v) for k, v in result.equivalent.items()},
         "signature": list(result.signature),
         "residual_structure": None if result.residual_structure is None else [float(v) for v in result.residual_structure],
+        "controller": _controller_document(result),
         "fitted_parameters": to_jsonable(result.fitted_parameters),
         "parameter_units": to_jsonable(result.parameter_units),
         "units": list(result.units),
@@ -309,6 +337,13 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
             "better than each block's mean): "
             + ", ".join(f"{name} {100 * max(v, 0.0):.0f} %" for name, v in zip(result.joint_names,
                                                                             result.residual_structure))]),
+        *([] if result.controller is None else [
+            "- controller replay (logged commands against the controller's law, held-out RMS per joint, N m): "
+            + ", ".join(f"{name} {b:.4g} -> {a:.4g}" for name, b, a in zip(
+                result.joint_names, document["controller"]["command_gap_before"],
+                document["controller"]["command_gap_after"]))
+            + (f"; gravity model scale error fitted: {', '.join(f'{v:+.4f}' for v in result.controller.scale_error)}"
+               if result.controller.named else "; nothing named")]),
         f"- held-out gap shrink (pooled RMSE, deg and mm): {100 * result.shrink:.1f} %",
         f"- run: {document['created']}, {runtime_s:.0f} s",
         "",
@@ -521,7 +556,7 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
                 "gap_before": pooled_rmse(result.residual_before.joints, result.units),
                 "shrink": float(result.shrink), "oracle_shrink": oracle_shrink,
                 "residual_structure": None if result.residual_structure is None else list(result.residual_structure),
-                "signature": list(result.signature)}
+                "signature": list(result.signature), "command_shrink": _command_shrink(result)}
 
     jobs = [(e, s) for e in effects for s in seeds]
     results = Parallel(n_jobs=-1, return_as="generator")(delayed(one)(e, s) for e, s in jobs)
@@ -546,7 +581,8 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
     run_rows = [[r["hidden"], str(r["seed"]), ", ".join(r["named"]) or ("unexplained" if r["unexplained"] else "none"),
                  "; ".join(f"{k} = {', '.join(v)}" for k, v in r["equivalent"].items()), r["gap_before"],
                  100 * r["shrink"], 100 * r["oracle_shrink"],
-                 "-" if r.get("residual_structure") is None else f"{100 * max(max(r['residual_structure']), 0.0):.0f}"]
+                 "-" if r.get("residual_structure") is None else f"{100 * max(max(r['residual_structure']), 0.0):.0f}",
+                 "-" if r.get("command_shrink") is None else f"{100 * r['command_shrink']:.1f}"]
                 for r in runs]
     sizes = "at their default sizes" if size_factor == 1.0 else f"at {size_factor:g} times their default sizes"
     text = "\n".join([
@@ -569,9 +605,11 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         "Structure %: with nothing named, the largest share of one joint's residual variance that the generic "
         "term library predicts on blocks it was not fitted to (0 where it predicts no better than the blocks' "
         "means; flagged unexplained at "
-        f"{100 * WorkflowSettings().structure_share:.0f} % or more).", "",
+        f"{100 * WorkflowSettings().structure_share:.0f} % or more). Command shrink %: how much of the held-out "
+        "gap between the logged commands and the controller's law the named effects close (only a "
+        "controller candidate closes any).", "",
         markdown_table(["hidden", "seed", "named", "indistinguishable", "gap", "shrink %", "oracle shrink %",
-                        "structure %"], run_rows, digits=4),
+                        "structure %", "command shrink %"], run_rows, digits=4),
         ""])
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "confusion.md", text)

@@ -138,6 +138,9 @@ def test_nothing_hidden_names_nothing(cli_runs):
     # the identified nominal model already reproduces the data to the encoders' resolution
     assert np.all(np.array(report["gap_before"]) < np.array([2e-4, 2e-4, 1e-5])), report["gap_before"]
     assert report["hidden_effect"] == [] and report["oracle_shrink"] == pytest.approx(0.0)
+    # the controller replay ran on the logged commands and found the controller's own law
+    assert report["controller"]["named"] is False
+    assert max(abs(v) for v in report["controller"]["scale_error"]) < 0.005
     # nothing named: the residual was checked for structure that repeats, and none was found
     assert len(report["residual_structure"]) == 3
     assert max(report["residual_structure"]) < WorkflowSettings().structure_share

@@ -118,9 +118,9 @@ def _homing_applies(model, signals, name):
 
 
 def _not_replayable(model, signals, name):
-    return False, ("the replay drives the cables with the measured motor positions, so an error in the "
-                   "controller's gravity compensation (which moves only where the motors settle) leaves "
-                   "no residual in joints or torques")
+    return False, ("the transmission replay drives the cables with the measured motor positions, so an error "
+                   "in the controller's gravity compensation (which moves only where the motors settle) leaves "
+                   "no residual in joints or torques; the controller replay fits it on the logged commands")
 
 
 def _payload_applies(model, signals, name):
@@ -283,11 +283,15 @@ RAVEN_LIBRARY = ("backlash", "hysteresis", "drift", "homing_offset", "registrati
 starting structure (the identified cable model of
 :data:`studies.common.discrepancy_runs.STARTING_STRUCTURE`) does not hold."""
 
+CONTROLLER_CANDIDATES = ("gravity_model_error",)
+"""Candidates of the controller rather than the transmission: fitted by the controller replay on the
+logged commands (:mod:`simulation.discrepancy.controller`), never by the transmission replay."""
+
 LIBRARY_NAMES = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "gravity_stretch", "coupling",
                  "drift", "homing_offset", "registration_offset", "transmission_error", "motor_friction",
                  "capstan_friction", "gravity_model_error", "payload")
 """Effect names the workflow can name. The simulator has more (``capstan_runout``), which the
 library deliberately lacks: a residual they cause is reported as unexplained."""
 
-__all__ = ["Candidate", "LIBRARY_NAMES", "NominalModel", "ParameterBlock", "RAVEN_LIBRARY", "library",
-           "oracle_candidates"]
+__all__ = ["CONTROLLER_CANDIDATES", "Candidate", "LIBRARY_NAMES", "NominalModel", "ParameterBlock", "RAVEN_LIBRARY",
+           "library", "oracle_candidates"]

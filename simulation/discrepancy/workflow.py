@@ -31,8 +31,9 @@ from typing import Callable
 import numpy as np
 from tqdm.auto import tqdm
 
-from simulation.discrepancy.candidates import Candidate, library
+from simulation.discrepancy.candidates import CONTROLLER_CANDIDATES, Candidate, library
 from simulation.discrepancy.generic import NominalModel
+from simulation.discrepancy.controller import ControllerCheck, ControllerLaw, ControllerSignals, check_controller
 from simulation.discrepancy.replay import RavenModel
 from simulation.discrepancy.fitting import ChannelWeights, Residual, fit_candidate, residual
 from simulation.discrepancy.signals import MeasuredSignals, joint_rmse, pooled_rmse, report_scale
@@ -52,7 +53,9 @@ class WorkflowSettings:
         shows only in the motor torques (motor friction: the replay takes the motor positions as
         measured) may instead cut the torque gap (RMS of the torque residual, each joint over its
         typical size) by this fraction on both parts, provided the joint gap grows by less than
-        ``min_improvement``.
+        ``min_improvement``. A candidate of the controller must cut the gap between the logged
+        commands and the controller's law by this fraction on both parts
+        (:func:`~simulation.discrepancy.controller.check_controller`).
     min_improvement : ... and by at least this much in absolute terms (deg/mm pooled). On four
         minutes of data with nothing hidden (5 seeds) no candidate cut the validation gap by more
         than 0.00025; the floor is four times that. (It was 0.004, the size of that gap itself,
@@ -163,7 +166,9 @@ class DiscrepancyResult:
     kinds of per-homing offset): the data cannot tell them apart. ``residual_structure`` is, when
     nothing was named, the fraction of each joint's residual variance (fit and validation parts)
     that the generic term library predicts on blocks it was not fitted to (None when something was
-    named or the record is too short for the check).
+    named or the record is too short for the check). ``controller`` is the replay of the
+    controller's law on the logged commands (:mod:`simulation.discrepancy.controller`), None when
+    the data or the library has no controller candidate.
     """
 
     named_effects: tuple[str, ...]
@@ -186,6 +191,7 @@ class DiscrepancyResult:
     torque_gap_after: np.ndarray | None = None
     equivalent: dict = field(default_factory=dict)
     residual_structure: tuple[float, ...] | None = None
+    controller: ControllerCheck | None = None
 
 
 def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights: ChannelWeights,
@@ -351,7 +357,8 @@ def _transplant(source, target, names):
 
 def run_workflow(model, signals: MeasuredSignals, split: Split, settings: WorkflowSettings = WorkflowSettings(),
                  candidates: list[Candidate] | None = None, robot=None, exclude: tuple[str, ...] = (),
-                 base: BaseIdentifier | None = None, progress: bool = False) -> DiscrepancyResult:
+                 base: BaseIdentifier | None = None, progress: bool = False,
+                 controller: tuple[ControllerLaw, ControllerSignals] | None = None) -> DiscrepancyResult:
     """Steps 1-5 from a starting ``model`` (a :class:`~simulation.discrepancy.replay.RavenModel` or
     :class:`~simulation.discrepancy.generic.NominalModel`) identified from the measured data.
 
@@ -365,6 +372,11 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
     candidate's share removed, then the candidate fitted again.
 
     ``progress`` shows a bar (on stderr) over the candidates fitted in each iteration.
+
+    ``controller`` (the controller's law and the log's controller signals, row for row with
+    ``signals``) first replays the controller on its logged commands; a candidate of the controller
+    (:data:`CONTROLLER_CANDIDATES`) in the library is fitted and named there, before the
+    transmission's candidates, whose replay cannot see it.
     """
     if robot is None and signals.kind == "raven":
         from kinematics import RavenII
@@ -390,6 +402,20 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
     parameter_units: dict = {}
     iterations: list[Iteration] = []
     structure = tuple(base.structure) if base is not None else ()
+
+    controller_check = None
+    if controller is not None and any(c.name in CONTROLLER_CANDIDATES for c in candidates):
+        law, controller_signals = controller
+        if len(controller_signals) != len(signals):
+            raise ValueError(f"the controller signals have {len(controller_signals)} rows, the measured signals "
+                             f"{len(signals)}")
+        controller_check = check_controller(law, controller_signals, split.fit, split.validation, split.held_out,
+                                            settings.min_shrink, accept=settings.accept_all)
+        if controller_check.named:
+            named.append("gravity_model_error")
+            fitted_parameters["gravity_model_error"] = {"scale_error": controller_check.scale_error.tolist()}
+            parameter_units["gravity_model_error"] = {"scale_error": ["1", "1", "1"]}
+    named_by_controller = len(named)
 
     def extras_of(m):
         return [n for n in m.enabled_effects if n not in structure]
@@ -568,7 +594,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
     part = split.fit | split.validation
     part_signals, left = signals.select(part), on(model, part).joints
     structure = None
-    if not named and enough_samples(part_signals, folds=settings.structure_folds):
+    if len(named) == named_by_controller and enough_samples(part_signals, folds=settings.structure_folds):
         check = residual_structure(part_signals, left, folds=settings.structure_folds)
         structure = tuple(float(v) for v in check.explained)
         unexplained = unexplained or max(structure) >= settings.structure_share
@@ -600,4 +626,5 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         torque_gap_after=None if after.torque is None else joint_rmse(after.torque),
         equivalent={it.named: list(it.equivalent) for it in iterations if it.named and it.equivalent},
         residual_structure=structure,
+        controller=controller_check,
     )

@@ -219,6 +219,13 @@ def raven_library(signals: MeasuredSignals, names=LIBRARY):
     return [every[n] for n in names]
 
 
+def controller_of(dataset):
+    """The controller's nominal law and the log's controller signals, for the controller replay."""
+    from simulation.discrepancy.controller import ControllerLaw, ControllerSignals
+
+    return ControllerLaw.nominal(dataset.arm), ControllerSignals.from_dataset(dataset)
+
+
 def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: WorkflowSettings = WorkflowSettings(),
                          fractions=(0.5, 0.25, 0.25), exclude=(), candidates=LIBRARY, progress: bool = False
                          ) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
@@ -229,7 +236,8 @@ def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: Workfl
     base = raven_base_identifier(dataset, split.fit, structure)
     model = base.identify(tuple(structure), None)
     return run_workflow(model, signals, split, settings, candidates=raven_library(signals, candidates),
-                        exclude=exclude, base=base, progress=progress), signals, split
+                        exclude=exclude, base=base, progress=progress,
+                        controller=controller_of(dataset)), signals, split
 
 
 def read_measured(path, arm: str = "left"):
@@ -307,7 +315,8 @@ def oracle(path, hidden) -> DiscrepancyResult:
     base = raven_base_identifier(dataset, split.fit, STARTING_STRUCTURE)
     model = base.identify(STARTING_STRUCTURE, None)
     settings = WorkflowSettings(accept_all=True, max_iterations=len(hidden), screen_top=max(len(hidden), 1))
-    return run_workflow(model, signals, split, settings, candidates=raven_library(signals, hidden), base=base)
+    return run_workflow(model, signals, split, settings, candidates=raven_library(signals, hidden), base=base,
+                        controller=controller_of(dataset))
 
 
 def true_values(generator: RavenParameters, name: str, payload_kg: float = 0.0) -> dict | None:
