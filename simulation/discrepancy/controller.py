@@ -29,11 +29,6 @@ import numpy as np
 
 from simulation.model.constants import POSITIONING_NAMES
 
-CONTROLLER_COLUMNS = tuple(f"{kind}.{name}" for kind in ("mpos", "mpos_d", "mvel", "jpos", "tau")
-                           for name in POSITIONING_NAMES)
-"""The log columns the controller replay needs (SI: rad, rad/s, m, N m, N)."""
-
-
 def _central_derivative(values: np.ndarray, time: np.ndarray, homing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """d(values)/dt by central differences, each homing's stretch on its own (a re-homing
     re-registers the encoders, so the positions jump there), and where it is central: False at
@@ -74,7 +69,8 @@ class ControllerSignals:
     @classmethod
     def from_dataset(cls, dataset) -> "ControllerSignals":
         """The controller signals of a :class:`~simulation.recordings.dataset.CalibrationDataset`
-        (which holds every column of :data:`CONTROLLER_COLUMNS`: the ravenstate topic logs them)."""
+        (its ``mpos``, ``mpos_d``, ``mvel``, ``jpos`` and ``tau`` columns of the positioning joints,
+        which every dataset holds: the ravenstate topic logs them)."""
         table = dataset.table
 
         def columns(kind):
@@ -201,4 +197,4 @@ def check_controller(law: ControllerLaw, signals: ControllerSignals, fit: np.nda
                            bic_before=bic_before, bic_after=bic_after)
 
 
-__all__ = ["CONTROLLER_COLUMNS", "ControllerCheck", "ControllerLaw", "ControllerSignals", "check_controller"]
+__all__ = ["ControllerCheck", "ControllerLaw", "ControllerSignals", "check_controller"]
