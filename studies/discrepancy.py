@@ -181,9 +181,8 @@ def _command_shrink(result: DiscrepancyResult) -> float | None:
     check = result.controller
     if check is None:
         return None
-    after = check.held_out_gap_after if check.named else check.held_out_gap_before
     before = float(np.sqrt(np.mean(np.square(check.held_out_gap_before))))
-    return float(1.0 - np.sqrt(np.mean(np.square(after))) / before) if before > 0 else 0.0
+    return float(1.0 - np.sqrt(np.mean(np.square(check.held_out_gap_kept))) / before) if before > 0 else 0.0
 
 
 def _controller_document(result: DiscrepancyResult) -> dict | None:
@@ -192,10 +191,9 @@ def _controller_document(result: DiscrepancyResult) -> dict | None:
     check = result.controller
     if check is None:
         return None
-    after = check.held_out_gap_after if check.named else check.held_out_gap_before
     return {"named": bool(check.named), "scale_error": [float(v) for v in check.scale_error],
             "command_gap_before": [float(v) for v in check.held_out_gap_before],
-            "command_gap_after": [float(v) for v in after],
+            "command_gap_after": [float(v) for v in check.held_out_gap_kept],
             "fit_command_gap": [[float(v) for v in check.fit_gap_before], [float(v) for v in check.fit_gap_after]],
             "validation_command_gap": [[float(v) for v in check.validation_gap_before],
                                        [float(v) for v in check.validation_gap_after]],

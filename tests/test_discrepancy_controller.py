@@ -55,6 +55,7 @@ def test_a_controller_gravity_model_off_by_a_scale_is_fitted_and_named(records):
     np.testing.assert_allclose(check.scale_error, generator.effect("gravity_model_error").scale_error, atol=0.005)
     # the command gap closes where it was not fitted
     assert np.all(check.held_out_gap_after < 0.1 * check.held_out_gap_before)
+    assert check.held_out_gap_kept is check.held_out_gap_after
     assert check.bic_after < check.bic_before
 
 
@@ -63,6 +64,7 @@ def test_a_payload_the_controller_does_not_know_is_not_a_controller_discrepancy(
     dataset, _ = records["payload"]
     check, _, _ = _check(dataset)
     assert not check.named
+    assert check.held_out_gap_kept is check.held_out_gap_before
     assert np.all(np.abs(check.scale_error) < 0.005), check.scale_error
 
 

@@ -159,6 +159,12 @@ class ControllerCheck:
     bic_before: float
     bic_after: float
 
+    @property
+    def held_out_gap_kept(self) -> np.ndarray:
+        """The held-out command gap of what the workflow keeps: with the fitted scale when it was
+        named, else with none (N m)."""
+        return self.held_out_gap_after if self.named else self.held_out_gap_before
+
 
 def _rms(values: np.ndarray) -> np.ndarray:
     return np.sqrt(np.mean(np.square(values), axis=0))

@@ -412,9 +412,10 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         controller_check = check_controller(law, controller_signals, split.fit, split.validation, split.held_out,
                                             settings.min_shrink, accept=settings.accept_all)
         if controller_check.named:
-            named.append("gravity_model_error")
-            fitted_parameters["gravity_model_error"] = {"scale_error": controller_check.scale_error.tolist()}
-            parameter_units["gravity_model_error"] = {"scale_error": ["1", "1", "1"]}
+            (name,) = CONTROLLER_CANDIDATES
+            named.append(name)
+            fitted_parameters[name] = {"scale_error": controller_check.scale_error.tolist()}
+            parameter_units[name] = {"scale_error": ["1", "1", "1"]}
     named_by_controller = len(named)
 
     def extras_of(m):
