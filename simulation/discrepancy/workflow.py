@@ -211,7 +211,7 @@ def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights
         for _ in range(passes):
             # a second pass lets each parameter follow what the others found (a loop's width and height)
             for i in range(theta.size):
-                trial_values = [scale[i] * f for f in (0.1, 0.3, 1.0, 3.0, 10.0)]
+                trial_values = [scale[i] * f for f in (0.03, 0.1, 0.3, 1.0, 3.0, 10.0)]
                 if lower[i] < 0:
                     trial_values += [-v for v in trial_values]
                 for value in trial_values:
