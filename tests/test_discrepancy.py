@@ -28,6 +28,7 @@ from simulation.discrepancy import (
     localize,
     strongest_dependence,
 )
+from simulation.discrepancy.replay import play_series
 from simulation.discrepancy.signals import pooled_rmse
 from studies.common.discrepancy_runs import (
     HIDDEN_CHOICES,
@@ -266,8 +267,6 @@ def _dead_band_record():
     """A robot known only by reported and measured joints: the measured joint trails the reported
     one by a play of 0.5 and 0.3 deg that reverses with the motion (plus encoder noise).
     Returns time, reported, truth and the half-widths (rad)."""
-    from simulation.discrepancy.replay import play_series
-
     time, reported, rng = _generic_record()
     half = np.deg2rad([0.5, 0.3])
     first = np.r_[True, np.zeros(len(time) - 1, bool)]
@@ -281,6 +280,35 @@ def test_generic_data_with_a_dead_band_names_backlash():
     assert result.named_effects[:1] == ("backlash",), result.named_effects
     assert result.shrink >= 0.8
     np.testing.assert_allclose(result.fitted_parameters["backlash"]["half_width"], half, rtol=0.1)
+
+
+def test_the_screen_resolves_an_effect_thirty_times_below_its_typical_scale():
+    # a play the starting model half hides shows its gain only well below the candidate's typical
+    # scale: the coarse scan must reach down to 3 % of it (a RAVEN-II backlash of the default size,
+    # 0.02 deg, against a typical 0.06 deg)
+    from simulation.discrepancy.candidates import Candidate, ParameterBlock
+    from simulation.discrepancy.candidates import _any, _generic
+    from simulation.discrepancy.fitting import ChannelWeights, residual
+    from simulation.discrepancy.workflow import _screen
+
+    time, reported, rng = _generic_record(seed=3)
+    half = np.array([3e-4, 3e-4])  # 0.03 of the typical scale below
+    first = np.r_[True, np.zeros(len(time) - 1, bool)]
+    truth = np.column_stack([play_series(np.ascontiguousarray(reported[:, j]), half[j], first) for j in range(2)])
+    signals = MeasuredSignals.generic(time, reported, truth + rng.normal(0, 1e-5, truth.shape), ("a", "b"),
+                                     ("rad", "rad"))
+    candidate = Candidate("backlash", (ParameterBlock("half_width", 2, 0.0, 0.1, 1e-2, 0.0, ("rad", "rad")),),
+                          _generic("backlash"), _any)
+    model = NominalModel(offsets=np.zeros(2))
+    mask = np.ones(len(time), bool)
+    start = residual(model, signals, mask=mask)
+    weights = ChannelWeights.from_residual(start.joints, None, np.full(2, 1e-6))
+    chi, values = _screen(candidate, model, signals, mask, weights, robot=None)
+    # a tenth of the scale (the grid's old bottom) is already worse than no play at all
+    assert residual(candidate.apply(model, np.full(2, 1e-3)), signals, mask=mask).chi_square(weights) \
+        > start.chi_square(weights)
+    assert chi < 0.05 * start.chi_square(weights), (chi, start.chi_square(weights))
+    np.testing.assert_allclose(values, half, rtol=0.01)
 
 
 def test_the_fit_budget_reaches_the_candidate_fits_and_is_checked():
