@@ -187,3 +187,24 @@ def test_the_structure_check_refuses_a_bad_number_of_blocks(folds):
     s = synthetic_signals()
     with pytest.raises(ValueError, match="folds must be an integer of at least 2"):
         residual_structure(s, noise(s, 1), folds=folds)
+
+
+def test_the_unmodelled_encoder_error_is_one_and_two_cycles_per_revolution():
+    from studies.discrepancy_unmodelled import EncoderError
+
+    encoder = EncoderError.drawn(0.01, seed=4)
+    assert encoder.amplitude == pytest.approx(np.deg2rad(0.01))
+    angles = np.random.default_rng(0).uniform(-1.0, 1.0, size=(50, 2))
+    error = encoder.error(angles)
+    assert error.shape == (50, 2)
+    # periodic over one revolution, and the sum of a first and a second harmonic of that amplitude
+    np.testing.assert_allclose(encoder.error(angles + 2 * np.pi), error, atol=1e-15)
+    first = encoder.amplitude * np.sin(angles + encoder.phases[0])
+    second = encoder.amplitude * np.sin(2 * angles + encoder.phases[1])
+    np.testing.assert_allclose(error, first + second)
+    # each seed mounts its discs differently; the same seed the same way
+    assert not np.allclose(EncoderError.drawn(0.01, seed=5).phases, encoder.phases)
+    np.testing.assert_array_equal(EncoderError.drawn(0.01, seed=4).phases, encoder.phases)
+    for bad in (0.0, -1.0, np.nan):
+        with pytest.raises(ValueError, match="amplitude must be a positive number of degrees"):
+            EncoderError.drawn(bad, seed=0)

@@ -65,6 +65,7 @@ SCRIPT_MISTAKES = [
     ("discrepancy", ["--sweep", "--seeds", "0"], "--seeds"),
     ("discrepancy", ["--measured", "{tmp}/corrupt.bag"], "corrupt.bag"),
     ("discrepancy_convergence", ["--effect", "coupling"], "is in the starting structure"),
+    ("discrepancy_unmodelled", ["--amplitude", "-0.01"], "--amplitude"),
     ("homing", ["--out", "{tmp}/a_file.txt"], "is a file"),
     ("input_features", ["--hours", "-1"], "--hours"),
     ("long_operation", ["--kinds", "idle,sleeping"], "sleeping"),
