@@ -215,6 +215,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "torque_gap_before": None if result.torque_gap_before is None else [float(v) for v in result.torque_gap_before],
         "torque_gap_after": None if result.torque_gap_after is None else [float(v) for v in result.torque_gap_after],
         "equivalent": {k: list(v) for k, v in result.equivalent.items()},
+        "rivals": {k: {name: float(d) for name, d in v.items()} for k, v in result.rivals.items()},
         "signature": list(result.signature),
         "residual_structure": None if result.residual_structure is None else [float(v) for v in result.residual_structure],
         "controller": _controller_document(result),
@@ -228,7 +229,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "iterations": [
             {"validation_gap": it.gap_before, "fit_gap": it.fit_gap_before, "bic": it.bic_before, "named": it.named,
              "validation_torque_gap": it.torque_gap_before, "fit_torque_gap": it.fit_torque_gap_before,
-             "equivalent": list(it.equivalent),
+             "equivalent": list(it.equivalent), "rivals": {name: float(d) for name, d in it.rivals},
              "candidates": [{"name": s.name, "fitted": s.fitted, "validation_gap": s.validation_gap, "fit_gap": s.fit_gap,
                              "validation_torque_gap": s.torque_gap, "fit_torque_gap": s.fit_torque_gap,
                              "bic": s.bic, "screened_chi_square": s.screened_chi_square, "parameters": s.values}
@@ -327,6 +328,9 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         f"{kind}. Starting structure: {start}. Candidates screened: {', '.join(result.library) or 'none'}.",
         "",
         f"- named effects (in order): {', '.join(result.named_effects) or 'none'}",
+        *[f"- {named} was named by a BIC margin of at most {WorkflowSettings().bic_tie:g} over "
+          + ", ".join(f"{name} (BIC higher by {d:.2f})" for name, d in rivals.items())
+          + ": the data support those about as well" for named, rivals in result.rivals.items()],
         f"- unexplained residual left: {'yes' if result.unexplained else 'no'}",
         *([] if result.residual_structure is None else [
             "- repeatable structure of the residual with nothing named (share of each joint's variance the "
@@ -550,8 +554,9 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         oracle_shrink = float(1.0 - after / before) if before > 0 else 0.0
         first = result.named_effects[0] if result.named_effects else ("unexplained" if result.unexplained else "none")
         return {"hidden": effect, "seed": seed, "named_first": first, "named": list(result.named_effects),
-                "equivalent": {k: list(v) for k, v in result.equivalent.items()}, "unexplained": result.unexplained,
-                "gap_before": pooled_rmse(result.residual_before.joints, result.units),
+                "equivalent": {k: list(v) for k, v in result.equivalent.items()},
+                "rivals": {k: {n: float(d) for n, d in v.items()} for k, v in result.rivals.items()},
+                "unexplained": result.unexplained, "gap_before": pooled_rmse(result.residual_before.joints, result.units),
                 "shrink": float(result.shrink), "oracle_shrink": oracle_shrink,
                 "residual_structure": None if result.residual_structure is None else list(result.residual_structure),
                 "signature": list(result.signature), "command_shrink": _command_shrink(result)}
@@ -577,7 +582,9 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
                              f"{np.mean(closable):.1f} [{np.min(closable):.1f}, {np.max(closable):.1f}]",
                              "-" if e == "none" else ("yes" if goal else "no")])
     run_rows = [[r["hidden"], str(r["seed"]), ", ".join(r["named"]) or ("unexplained" if r["unexplained"] else "none"),
-                 "; ".join(f"{k} = {', '.join(v)}" for k, v in r["equivalent"].items()), r["gap_before"],
+                 "; ".join(f"{k} = {', '.join(v)}" for k, v in r["equivalent"].items()),
+                 "; ".join(f"{k} ~ {n} ({d:.2f})" for k, v in r.get("rivals", {}).items() for n, d in v.items()),
+                 r["gap_before"],
                  100 * r["shrink"], 100 * r["oracle_shrink"],
                  "-" if r.get("residual_structure") is None else f"{100 * max(max(r['residual_structure']), 0.0):.0f}",
                  "-" if r.get("command_shrink") is None else f"{100 * r['command_shrink']:.1f}"]
@@ -600,14 +607,16 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         "'unexplained': nothing named but a residual left above the floor, or one that repeats).", "",
         markdown_table(["hidden \\ named"] + columns, rows, digits=0), "",
         "## Runs", "",
+        "Rivals: candidates that also explained enough with a BIC at most "
+        f"{WorkflowSettings().bic_tie:g} above the named one's (the data support them about as well). "
         "Structure %: with nothing named, the largest share of one joint's residual variance that the generic "
         "term library predicts on blocks it was not fitted to (0 where it predicts no better than the blocks' "
         "means; flagged unexplained at "
         f"{100 * WorkflowSettings().structure_share:.0f} % or more). Command shrink %: how much of the held-out "
         "gap between the logged commands and the controller's law the named effects close (only a "
         "controller candidate closes any).", "",
-        markdown_table(["hidden", "seed", "named", "indistinguishable", "gap", "shrink %", "oracle shrink %",
-                        "structure %", "command shrink %"], run_rows, digits=4),
+        markdown_table(["hidden", "seed", "named", "indistinguishable", "rivals (BIC higher by)", "gap", "shrink %",
+                        "oracle shrink %", "structure %", "command shrink %"], run_rows, digits=4),
         ""])
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "confusion.md", text)

@@ -221,6 +221,8 @@ def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
     np.testing.assert_allclose(report["gap_before"], result.gap_before)
     assert report["shrink"] == pytest.approx(result.shrink)
     assert report["torque_gap_before"] is None and report["equivalent"] == {}
+    assert report["rivals"] == {k: dict(v) for k, v in result.rivals.items()}
+    assert all(isinstance(it["rivals"], dict) for it in report["iterations"])
     assert report["residual_structure"] is None  # checked only when nothing is named
     # parameters in SI with their units, reported in degrees and millimetres
     first = report["named_effects"][0]
@@ -280,6 +282,32 @@ def test_generic_data_with_a_dead_band_names_backlash():
     assert result.named_effects[:1] == ("backlash",), result.named_effects
     assert result.shrink >= 0.8
     np.testing.assert_allclose(result.fitted_parameters["backlash"]["half_width"], half, rtol=0.1)
+
+
+def test_candidates_within_the_bic_margin_are_reported_as_rivals():
+    time, reported, truth, _ = _dead_band_record()
+
+    def run(margin):
+        return run_on_generic(time, reported, truth, ("a", "b"), ("rad", "rad"),
+                              settings=WorkflowSettings(bic_tie=margin))[0]
+
+    wide = run(1e9)
+    first = wide.iterations[0]
+    bic = {s.name: s.bic for s in first.scores}
+    rivals = dict(first.rivals)
+    assert first.named == "backlash" and rivals, rivals  # the dead band's look-alikes explain it too
+    assert first.named not in rivals and set(rivals) <= {s.name for s in first.scores if s.fitted}
+    for name, difference in rivals.items():
+        assert difference == pytest.approx(bic[name] - bic[first.named]) and difference >= 0
+    assert wide.rivals["backlash"] == rivals
+    # a margin below the closest rival's difference lists none of them and names the same effects
+    narrow = run(0.5 * min(rivals.values()))
+    assert narrow.iterations[0].rivals == () and "backlash" not in narrow.rivals
+    assert narrow.named_effects == wide.named_effects
+    assert WorkflowSettings().bic_tie == 2.0
+    for bad in (-1.0, np.nan, np.inf):
+        with pytest.raises(ValueError, match="bic_tie must be a finite number of at least 0"):
+            WorkflowSettings(bic_tie=bad)
 
 
 def test_the_screen_resolves_an_effect_thirty_times_below_its_typical_scale():

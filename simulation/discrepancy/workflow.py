@@ -95,6 +95,11 @@ class WorkflowSettings:
         (a default eccentric capstan). On the starting model's residual of four minutes with nothing
         hidden (seeds 0-9) no joint reached 0.14; the threshold is about twice that.
     structure_folds : the number of contiguous blocks of that check.
+    bic_tie : candidates that also explain enough and whose BIC is within this of the named one's
+        are reported as its rivals: the data support them about as well (a BIC difference below 2
+        is "not worth more than a bare mention", Kass and Raftery 1995). The named one is still the
+        lowest; the report says which others it barely beat (a default backlash and capstan friction
+        both lag the joint at reversals, and on one seed of five their BICs differed by 0.7).
     """
 
     min_shrink: float = 0.10
@@ -110,6 +115,7 @@ class WorkflowSettings:
     fit_iterations: int = 30
     structure_share: float = 0.3
     structure_folds: int = 8
+    bic_tie: float = 2.0
 
     def __post_init__(self):
         if isinstance(self.fit_iterations, bool) or not isinstance(self.fit_iterations, int) or self.fit_iterations < 1:
@@ -118,6 +124,8 @@ class WorkflowSettings:
             raise ValueError(f"structure_share must be in (0, 1], got {self.structure_share!r}")
         if isinstance(self.structure_folds, bool) or not isinstance(self.structure_folds, int) or self.structure_folds < 2:
             raise ValueError(f"structure_folds must be an integer of at least 2, got {self.structure_folds!r}")
+        if not (np.isfinite(self.bic_tie) and self.bic_tie >= 0.0):
+            raise ValueError(f"bic_tie must be a finite number of at least 0, got {self.bic_tie!r}")
 
 
 @dataclass(frozen=True)
@@ -148,6 +156,7 @@ class Iteration:
     torque_gap_before: float = np.nan
     fit_torque_gap_before: float = np.nan
     equivalent: tuple[str, ...] = ()
+    rivals: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -163,7 +172,10 @@ class DiscrepancyResult:
     ``torque_gap_before``/``torque_gap_after`` are the held-out RMS of the motor-torque residual
     per joint (N m, N m, N at the gearbox output), None without torques. ``equivalent`` maps a
     named effect to the candidates that fitted the data exactly as well (the same residual, e.g. two
-    kinds of per-homing offset): the data cannot tell them apart. ``residual_structure`` is, when
+    kinds of per-homing offset): the data cannot tell them apart. ``rivals`` maps a named effect to
+    the other candidates that also explained enough with a BIC at most ``WorkflowSettings.bic_tie``
+    above its own, each with that difference: the data support them about as well.
+    ``residual_structure`` is, when
     nothing was named, the fraction of each joint's residual variance (fit and validation parts)
     that the generic term library predicts on blocks it was not fitted to (None when something was
     named or the record is too short for the check). ``controller`` is the replay of the
@@ -190,6 +202,7 @@ class DiscrepancyResult:
     torque_gap_before: np.ndarray | None = None
     torque_gap_after: np.ndarray | None = None
     equivalent: dict = field(default_factory=dict)
+    rivals: dict = field(default_factory=dict)
     residual_structure: tuple[float, ...] | None = None
     controller: ControllerCheck | None = None
 
@@ -568,14 +581,23 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
 
         # the lowest BIC among the candidates that explain enough (with two effects missing, the one
         # whose fit lowers the BIC most may not yet be the one that closes the gap)
-        for bic, gap, fit_gap, candidate, trial, values in sorted(fitted, key=lambda f: f[0]):
-            score = next(s for s in scores if s.name == candidate.name)
+        rivals: tuple[tuple[str, float], ...] = ()
+        ranked = sorted(fitted, key=lambda f: f[0])
+
+        def score_of(candidate):
+            return next(s for s in scores if s.name == candidate.name)
+
+        for bic, gap, fit_gap, candidate, trial, values in ranked:
+            score = score_of(candidate)
             if settings.accept_all or explains(bic, gap, fit_gap, score):
                 accepted = candidate.name
                 # candidates of the same form screen identically (e.g. two kinds of per-homing offset)
                 equivalent = tuple(s.name for s in scores if s.name != candidate.name
                                    and abs(s.screened_chi_square - score.screened_chi_square)
                                    <= 1e-9 * abs(score.screened_chi_square))
+                rivals = tuple((c.name, float(b - bic)) for b, g, fg, c, _, _ in ranked
+                               if c is not candidate and c.name not in equivalent and b - bic <= settings.bic_tie
+                               and explains(b, g, fg, score_of(c)))
                 model = trial
                 if base is not None and candidate.name in base.fittable:
                     structure = structure + (candidate.name,)
@@ -586,7 +608,8 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         iterations.append(Iteration(gap_before=current_gap, scores=tuple(scores), named=accepted,
                                     fit_gap_before=current_fit_gap, bic_before=current_bic,
                                     torque_gap_before=current_torque_gap,
-                                    fit_torque_gap_before=current_fit_torque_gap, equivalent=equivalent))
+                                    fit_torque_gap_before=current_fit_torque_gap, equivalent=equivalent,
+                                    rivals=rivals))
         if accepted is None:
             break
 
@@ -626,6 +649,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         torque_gap_before=None if before.torque is None else joint_rmse(before.torque),
         torque_gap_after=None if after.torque is None else joint_rmse(after.torque),
         equivalent={it.named: list(it.equivalent) for it in iterations if it.named and it.equivalent},
+        rivals={it.named: dict(it.rivals) for it in iterations if it.named and it.rivals},
         residual_structure=structure,
         controller=controller_check,
     )
