@@ -98,8 +98,10 @@ class WorkflowSettings:
     bic_tie : candidates that also explain enough and whose BIC is within this of the named one's
         are reported as its rivals: the data support them about as well (a BIC difference below 2
         is "not worth more than a bare mention", Kass and Raftery 1995). The named one is still the
-        lowest; the report says which others it barely beat (a default backlash and capstan friction
-        both lag the joint at reversals, and on one seed of five their BICs differed by 0.7).
+        lowest; the report says which others it barely beat. (A default backlash and capstan friction
+        both lag the joint at reversals: with a screen that scanned every candidate down to 3 % of
+        its typical size, capstan friction was named on one seed of five by a BIC 0.73 below
+        backlash's.)
     """
 
     min_shrink: float = 0.10
