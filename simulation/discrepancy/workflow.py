@@ -230,8 +230,7 @@ def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights
         except ValueError:
             return np.inf
 
-    def scan(theta, factors):
-        best = chi(theta)
+    def scan(theta, factors, best):
         for _ in range(passes):
             # a second pass lets each parameter follow what the others found (a loop's width and height)
             for i in range(theta.size):
@@ -250,9 +249,10 @@ def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights
     if np.any(initial != 0):
         # parameters that set a shape (a loop's width) also start a decade and a third of one lower
         starts += [np.clip(np.where(initial != 0, initial * f, initial), lower, upper) for f in (0.1, 0.3)]
-    best, theta = min((scan(start, SCREEN_FACTORS) for start in starts), key=lambda r: r[0])
-    if not best < chi(initial):
-        best, theta = min((scan(start, SCREEN_FINER) for start in starts), key=lambda r: r[0])
+    start_chis = [chi(start) for start in starts]
+    best, theta = min((scan(start, SCREEN_FACTORS, c) for start, c in zip(starts, start_chis)), key=lambda r: r[0])
+    if not best < start_chis[0]:
+        best, theta = min((scan(start, SCREEN_FINER, c) for start, c in zip(starts, start_chis)), key=lambda r: r[0])
     return float(best), theta
 
 
