@@ -60,6 +60,7 @@ from studies.common.discrepancy_runs import (
     run_on_dvrk,
     run_on_raven_dataset,
     true_values,
+    verdict,
     write_measured,
 )
 from studies.common.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text
@@ -534,13 +535,6 @@ def _named_first(hidden: str, result) -> bool:
     return first == hidden or hidden in result["equivalent"].get(first, [])
 
 
-def _verdict(named, unexplained: bool) -> str:
-    """What a run reported, in a few words: the named effects, and whether a residual was left unexplained."""
-    if named:
-        return ", ".join(named) + (" (then unexplained)" if unexplained else "")
-    return "unexplained" if unexplained else "none"
-
-
 def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, size_factor: float = 1.0) -> dict:
     """Hide each effect with each seed, through the file and the blind analysis, with the oracle:
     the confusion matrix of hidden vs named (first named), and per effect how often it was named
@@ -590,7 +584,7 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
                              f"{np.mean(shrink):.1f} [{np.min(shrink):.1f}, {np.max(shrink):.1f}]",
                              f"{np.mean(closable):.1f} [{np.min(closable):.1f}, {np.max(closable):.1f}]",
                              "-" if e == "none" else ("yes" if goal else "no")])
-    run_rows = [[r["hidden"], str(r["seed"]), _verdict(r["named"], r["unexplained"]),
+    run_rows = [[r["hidden"], str(r["seed"]), verdict(r["named"], r["unexplained"]),
                  "; ".join(f"{k} = {', '.join(v)}" for k, v in r["equivalent"].items()),
                  "; ".join(f"{k} ~ {n} ({d:.2f})" for k, v in r.get("rivals", {}).items() for n, d in v.items()),
                  r["gap_before"],

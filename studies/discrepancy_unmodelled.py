@@ -113,19 +113,15 @@ def run(seeds, duration: float, amplitude_deg: float, n_jobs: int = -1, backend:
             "named_then_flagged": sum(bool(r["named_effects"]) and r["unexplained"] for r in runs)}
 
 
-def _verdict(run: dict) -> str:
-    if run["named_effects"]:
-        return "named " + ", ".join(run["named_effects"]) + (" (then unexplained)" if run["unexplained"] else "")
-    return "unexplained" if run["unexplained"] else "nothing"
-
-
 def tables(results: dict) -> list[str]:
+    from studies.common.discrepancy_runs import verdict
+
     rows = []
     for r in results["runs"]:
         structure = "-" if r["residual_structure"] is None else f"{100 * max(r['residual_structure']):.0f}"
         rows.append([str(r["seed"]), ", ".join(f"{v:.4f}" for v in r["added_rms_deg"]),
                      f"{r['fit_gap']:.4f}, {r['validation_gap']:.4f}",
-                     ", ".join(f"{v:.4f}" for v in r["gap_before"]), _verdict(r), structure,
+                     ", ".join(f"{v:.4f}" for v in r["gap_before"]), verdict(r["named_effects"], r["unexplained"]), structure,
                      f"{100 * r['shrink']:.1f}", r["signature"][0] if r["signature"] else "-"])
     return [f"## Ground-truth encoder error of {results['amplitude_deg']:g} deg per harmonic, "
             f"{results['duration_s']:.0f} s records", "",

@@ -459,13 +459,18 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         return with_them.joints - without_them.joints, torque
 
     def rebase(m, new_structure, extras):
+        """``new_structure`` re-identified with the shares of ``extras`` removed, those carried over;
+        None when the identification leaves its valid range (an identified scale turns negative:
+        the base cannot take this much of the effect out)."""
         # an undeclared payload is a load the identification itself takes; other effects' shares
         # are removed from the measurements first
         shared = [e for e in extras if e != "payload"]
-        correction = share(m, shared) if shared else None
-        payload = getattr(m, "payload_kg", 0.0)
-        identified = base.identify(new_structure, correction, payload)
-        return with_fitted_offsets(_transplant(m, identified, extras))
+        try:
+            correction = share(m, shared) if shared else None
+            identified = base.identify(new_structure, correction, getattr(m, "payload_kg", 0.0))
+            return with_fitted_offsets(_transplant(m, identified, extras))
+        except ValueError:
+            return None
 
     def profile(candidate, weights, coarse=False):
         """A one-parameter candidate fitted by its profile: at each trial value the base structure
@@ -483,12 +488,8 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
             value = float(np.clip(value, lower, upper))
             if value not in evaluated:
                 with_it = candidate.apply(model, np.array([value]))
-                try:
-                    trial = rebase(with_it, structure, extras_of(with_it))
-                    chi = residual(trial, signals, robot, mask=split.fit).chi_square(weights)
-                except ValueError:
-                    # the base cannot take this much of the effect out (an identified scale turns negative)
-                    trial, chi = None, np.inf
+                trial = rebase(with_it, structure, extras_of(with_it))
+                chi = np.inf if trial is None else residual(trial, signals, robot, mask=split.fit).chi_square(weights)
                 evaluated[value] = (chi, trial)
             return evaluated[value][0]
 
@@ -513,13 +514,9 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
     def trial_model(candidate, weights, scanned):
         nonlocal structure
         if base is not None and candidate.name in base.fittable:
-            try:
-                trial = rebase(model, structure + (candidate.name,), extras_of(model))
-            except ValueError:
-                # the identification of the extended structure left its valid range (a scale turned
-                # negative): the candidate cannot be fitted to these data
-                return None, None
-            return trial, current_values_of(trial, candidate)
+            trial = rebase(model, structure + (candidate.name,), extras_of(model))
+            # None: the extended structure cannot be identified on these data
+            return trial, None if trial is None else current_values_of(trial, candidate)
         if candidate.name in profile_points:
             _, _, trial = profile(candidate, weights)
             return trial, current_values_of(trial, candidate)
@@ -538,12 +535,9 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
             theta = values[:candidate.n_parameters]
         if base is not None:
             for _ in range(settings.backfit_rounds):
-                try:
-                    rebased = rebase(trial, structure, extras_of(trial))
-                except ValueError:
-                    # with this share of the candidate removed, the re-identification leaves its valid
-                    # range (an identified load scale turned negative): keep the last round's fit
-                    break
+                rebased = rebase(trial, structure, extras_of(trial))
+                if rebased is None:
+                    break  # keep the last round's fit
                 new_theta, new_trial, new_chi = fit_candidate(candidate, rebased, signals, weights, robot,
                                                               mask=split.fit, initial=theta, starts=1,
                                                               max_iter=settings.fit_iterations)

@@ -262,6 +262,14 @@ def analyse_measured(path, *, progress: bool = False) -> tuple[DiscrepancyResult
     return run_on_raven_dataset(read_measured(path), progress=progress)
 
 
+def verdict(named, unexplained: bool) -> str:
+    """What an analysis reported, in a few words: the ``named`` effects, and whether a residual was
+    left ``unexplained`` ("hysteresis (then unexplained)", "unexplained", "none")."""
+    if named:
+        return ", ".join(named) + (" (then unexplained)" if unexplained else "")
+    return "unexplained" if unexplained else "none"
+
+
 def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=None, size_factor: float = 1.0):
     """Hide ``hidden`` in generated data, write it to ``folder/measured.parquet`` (a temporary folder
     by default) and analyse that file blind (:func:`analyse_measured`).
