@@ -123,6 +123,27 @@ def test_remembered_cable_series_are_those_of_a_fresh_run_and_follow_every_input
     np.testing.assert_array_equal(changed.joints[:, [0, 2]], first.joints[:, [0, 2]])
 
 
+def test_a_fingerprint_collision_is_caught_by_the_element_wise_comparison(record, monkeypatch):
+    from dataclasses import replace as with_values
+
+    from simulation.discrepancy import replay as replay_module
+
+    signals, model, robot = record
+    # every input set looks alike to the index: only the exact comparison tells them apart
+    monkeypatch.setattr(replay_module, "_series_fingerprint", lambda *arrays: (0.0,) * 6)
+    monkeypatch.setattr(replay_module, "_SERIES", replay_module._SeriesMemo())
+    model.replay(signals, robot)
+    friction = model.params.effect("coulomb_friction")
+    # more dry friction on the elbow changes one input array of the elbow's series, no scalar
+    stickier = with_values(model, params=model.params.with_effect(
+        with_values(friction, force=friction.force * np.array([1.0, 3.0, 1.0]))))
+    remembered = stickier.replay(signals, robot)
+    monkeypatch.setattr(replay_module, "_SERIES", replay_module._SeriesMemo(size=0))
+    fresh = stickier.replay(signals, robot)
+    np.testing.assert_array_equal(remembered.joints, fresh.joints)
+    assert np.max(np.abs(fresh.joints[:, 1] - model.replay(signals, robot).joints[:, 1])) > 1e-6
+
+
 def _bouc_wen_sub_steps(z, change, beta, gamma):
     """The replay's explicit Euler sub-steps of the Bouc-Wen state, one by one (at most a tenth of
     the width ``1 / (beta + gamma)`` each): dz/ds = 1 - beta sgn(ds) z - gamma |z|."""

@@ -60,8 +60,11 @@ def residual(model, signals: MeasuredSignals, robot=None, offsets: np.ndarray | 
     """
     if mask is not None:
         # the replay is causal: samples after the last one asked for change nothing before it
-        n = int(np.flatnonzero(mask)[-1]) + 1 if np.any(mask) else len(signals)
-        signals, mask = signals.head(n), mask[:n]
+        picked = np.flatnonzero(mask)
+        n = int(picked[-1]) + 1 if picked.size else len(signals)
+        signals = signals.head(n)
+        # a run of consecutive samples (a part split in time) is taken as a slice, without copying twice
+        mask = slice(int(picked[0]), n) if picked.size and picked.size == n - picked[0] else mask[:n]
     state = model.replay(signals, robot)
     mask = slice(None) if mask is None else mask
     joints = (signals.truth - state.joints)[mask]

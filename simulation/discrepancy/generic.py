@@ -86,6 +86,4 @@ class NominalModel:
         joints = signals.reported + self.offsets
         for name, values in self.effects.items():
             joints = joints + generic_contribution(name, values, signals)
-        ones = np.ones_like(joints)
-        return ReplayState(joints=joints, torque=None, compliance=ones, tension=None, stretch=np.zeros_like(ones),
-                           gravity=None, cable_side=signals.reported, torque_map=None)
+        return ReplayState(joints=joints, torque=None, tension=None, stretch=np.zeros_like(joints), gravity=None)

@@ -29,7 +29,6 @@ from simulation.model.laws import (
     bouc_wen_rate,
     bouc_wen_slope,
     cable_stiffness,
-    cable_stiffness_curve,
     cable_tension_curve,
     coupling_matrix,
     gravity_load,
@@ -198,7 +197,8 @@ class _SeriesMemo:
     one joint leaves the other joints' series unchanged: their results are taken from here instead
     of being run again (about a third of the replays' time for per-joint candidates). Entries are
     indexed by a cheap fingerprint of the inputs (a weighted sum of each array and the scalars),
-    and a hit is accepted only when every input equals the remembered one exactly.
+    and a hit is accepted only when every input equals the remembered one exactly. Both run
+    compiled: as numpy calls, hashing and comparing six arrays cost about as much as the series.
     """
 
     def __init__(self, size: int = 48, max_bytes: int = 256 * 2 ** 20):
@@ -208,21 +208,13 @@ class _SeriesMemo:
         self._count = 0
         self._results: OrderedDict[tuple, list] = OrderedDict()
 
-    @staticmethod
-    def _fingerprint(arrays, scalars) -> tuple:
-        sums = []
-        for array in arrays:
-            values = np.asarray(array, dtype=float).ravel()
-            sums.append((values.size, float(values @ _fingerprint_weights(values.size))))
-        return tuple(sums) + tuple(float(v) for v in scalars)
-
     def series(self, base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma,
                start, restart, capstan) -> tuple[np.ndarray, np.ndarray]:
         arrays = (base, load, dry, softening, start, restart)
-        scalars = (stiffness, hardening, hysteresis_stiffness, beta, gamma, capstan)
-        key = self._fingerprint(arrays, scalars)
+        key = (base.shape[0], _series_fingerprint(*arrays),
+               float(stiffness), float(hardening), float(hysteresis_stiffness), float(beta), float(gamma), float(capstan))
         for remembered, result in self._results.get(key, ()):
-            if all(np.array_equal(a, b) for a, b in zip(arrays, remembered)):
+            if _same_series_inputs(*arrays, *remembered):
                 self._results.move_to_end(key)
                 return result
         result = cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta,
@@ -247,42 +239,63 @@ def _nbytes(*groups) -> int:
     return sum(a.nbytes for group in groups for a in group)
 
 
-@functools.lru_cache(maxsize=8)
-def _fingerprint_weights(n: int) -> np.ndarray:
-    """Fixed pseudo-random weights in [1, 2) of a fingerprint over ``n`` values (the same in every process)."""
-    weights = 1.0 + np.random.default_rng(n).random(n)
-    weights.setflags(write=False)
-    return weights
+@njit(cache=True)
+def _series_fingerprint(base, load, dry, softening, start, restart):
+    """Weighted sums of the series inputs (weights in [1, 2) that vary along the record), one per input."""
+    sums = np.zeros(6)
+    for k in range(base.shape[0]):
+        weight = 1.0 + (k * 0.6180339887498949) % 1.0
+        sums[0] += weight * base[k]
+        sums[1] += weight * load[k]
+        sums[2] += weight * dry[k]
+        sums[3] += weight * softening[k]
+        sums[4] += weight * start[k]
+        sums[5] += weight * restart[k]
+    return sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]
+
+
+@njit(cache=True)
+def _same_series_inputs(base, load, dry, softening, start, restart, base_, load_, dry_, softening_, start_,
+                        restart_):
+    """Whether two sets of series inputs are equal, element by element."""
+    if base.shape[0] != base_.shape[0] or restart.shape[0] != restart_.shape[0]:
+        return False
+    for k in range(base.shape[0]):
+        if (base[k] != base_[k] or load[k] != load_[k] or dry[k] != dry_[k] or softening[k] != softening_[k]
+                or start[k] != start_[k] or restart[k] != restart_[k]):
+            return False
+    return True
 
 
 _SERIES = _SeriesMemo()
 
 
+@functools.lru_cache(maxsize=8)
+def _ones(shape: tuple) -> np.ndarray:
+    """A read-only array of ones (the cable's softening where it does not age), shared by every replay."""
+    ones = np.ones(shape)
+    ones.setflags(write=False)
+    return ones
+
+
 @dataclass(frozen=True, eq=False)
 class ReplayState:
-    """A model's prediction along measured signals, with the internals candidates build on.
+    """A model's prediction along measured signals, with the internals behind it.
 
     Attributes
     ----------
     joints : (N, J) predicted joint positions.
     torque : (N, J) predicted motor torques at the gearbox output, or None.
-    compliance : (N, J) d(stretch)/d(tension) at each sample (rad/(N m), m/N); ones for generic data
-        (candidate amplitudes are then in joint units).
     tension : (N, J) predicted cable tension (joint units), or None.
     stretch : (N, J) predicted cable stretch, zeros for generic data.
     gravity : (N, J) gravity holding load of the links with the payload (N m, N), or None.
-    cable_side : (N, J) cable-side joint positions A u (or the reported joints).
-    torque_map : (J, J) maps joint-side tension changes to gearbox-output motor torques, or None.
     """
 
     joints: np.ndarray
     torque: np.ndarray | None
-    compliance: np.ndarray
     tension: np.ndarray | None
     stretch: np.ndarray
     gravity: np.ndarray | None
-    cable_side: np.ndarray
-    torque_map: np.ndarray | None
 
 
 @dataclass(frozen=True, eq=False)
@@ -364,19 +377,20 @@ class RavenModel:
             load = load + gravity_load(gravity, p.effect("gravity_stretch").load_scale)
         if p.is_enabled("viscous_friction"):
             load = load + p.effect("viscous_friction").coefficient * velocity
-        dry = np.broadcast_to(p.effect("coulomb_friction").force if p.is_enabled("coulomb_friction") else np.zeros(3),
-                              u.shape).copy()
+        force = p.effect("coulomb_friction").force if p.is_enabled("coulomb_friction") else np.zeros(3)
         capstan = p.effect("capstan_friction").coefficient if p.is_enabled("capstan_friction") else np.zeros(3)
 
-        creep = np.zeros_like(u)
-        softening = np.ones_like(u)
-        if p.is_enabled("drift"):
+        n = u.shape[0]
+        drifts = p.is_enabled("drift")
+        if drifts:
             d = p.effect("drift")
             dose = d.time_scale / 3600.0 * (signals.travel + d.payload_gain * signals.loaded_travel) / d.reference_speed
-            creep = d.creep_rate * dose
+            base = side - d.creep_rate * dose
             softening = 1.0 + d.stiffness_loss * dose
+        else:
+            base = side
+            softening = _ones((n, 3))
 
-        base = side - creep
         first = signals.truth - self.offsets
         if self.homing_offsets:
             for count, extra in self.homing_offsets.items():
@@ -389,23 +403,22 @@ class RavenModel:
             gamma = hyst.gamma if hyst.enabled else np.ones(3)
             link = np.empty_like(u)
             z = np.empty_like(u)
+            columns = [np.ascontiguousarray(a.T) for a in (base, load, softening, first)]
             for i in range(3):
                 link[:, i], z[:, i] = _SERIES.series(
-                    np.ascontiguousarray(base[:, i]), np.ascontiguousarray(load[:, i]), np.ascontiguousarray(dry[:, i]),
-                    np.ascontiguousarray(softening[:, i]), law.stiffness[i], law.hardening[i], k_h[i],
-                    beta[i], gamma[i], np.ascontiguousarray(first[:, i]), signals.restarts,
-                    capstan[i])
+                    columns[0][i], columns[1][i], np.full(n, force[i]), columns[2][i], law.stiffness[i], law.hardening[i], k_h[i],
+                    beta[i], gamma[i], columns[3][i], signals.restarts, capstan[i])
             stretch = base - link
-            tension = np.column_stack([cable_tension_curve(stretch[:, i], law.stiffness[i], law.hardening[i])
-                                       for i in range(3)]) / softening + k_h * z
-            compliance = softening / cable_stiffness_curve(stretch, law.stiffness, law.hardening)
+            tension = cable_tension_curve(stretch, law.stiffness, law.hardening)
+            if drifts:
+                tension = tension / softening
+            tension = tension + k_h * z
         else:
             # rigid cable: the link rides on the capstans, friction only loads the motors
             link = base
             stretch = np.zeros_like(u)
-            tension = load + dry * np.sign(velocity)
+            tension = load + force * np.sign(velocity)
             tension = tension + capstan * np.abs(tension) * np.sign(velocity)
-            compliance = np.zeros_like(u)
 
         if p.is_enabled("transmission_error"):
             # the joint moves 1 / (1 + ratio_error) of what the nominal ratios say; the registration
@@ -428,6 +441,4 @@ class RavenModel:
             bound = friction.coulomb[:3] * ratio + friction.gearbox_loss[:3] * np.abs(tension @ a)
             motor_side = motor_side + bound * np.tanh(signals.drive_velocity / MOTOR_STICTION_SPEED)
         torque = motor_side * gear / ratio
-        torque_map = a.T * (gear / ratio)[:, None]
-        return ReplayState(joints=joints, torque=torque, compliance=compliance, tension=tension, stretch=stretch,
-                           gravity=gravity, cable_side=cable, torque_map=torque_map)
+        return ReplayState(joints=joints, torque=torque, tension=tension, stretch=stretch, gravity=gravity)

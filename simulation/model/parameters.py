@@ -8,6 +8,7 @@ so a robot described by its own identified values can replace the virtual RAVEN-
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import os
@@ -21,6 +22,14 @@ import numpy as np
 
 from simulation.model.constants import RavenConstants
 from simulation.model.effects import EFFECT_NAMES, EFFECT_TYPES, Effect, effect_type
+
+
+@functools.lru_cache(maxsize=None)
+def _switched_off(name: str) -> Effect:
+    """The effect ``name`` switched off, with its defaults: one shared object per name (effects are
+    frozen and their arrays read-only), so asking a parameter set for an effect it lacks costs no
+    construction (the discrepancy replay asks a dozen times per replay)."""
+    return effect_type(name)(enabled=False)
 
 
 def _default_effects() -> tuple[Effect, ...]:
@@ -304,11 +313,10 @@ class RavenParameters:
 
     def effect(self, name: str) -> Effect:
         """The effect object called ``name`` (switched off with defaults if not in ``effects``)."""
-        effect_type(name)
         for effect in self.effects:
             if effect.name == name:
                 return effect
-        return effect_type(name)(enabled=False)
+        return _switched_off(name)
 
     def is_enabled(self, name: str) -> bool:
         return self.effect(name).enabled
