@@ -218,7 +218,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "equivalent": {k: list(v) for k, v in result.equivalent.items()},
         "rivals": {k: dict(v) for k, v in result.rivals.items()},
         "signature": list(result.signature),
-        "residual_structure": None if result.residual_structure is None else [float(v) for v in result.residual_structure],
+        "residual_structure": _structure_list(result),
         "controller": _controller_document(result),
         "fitted_parameters": to_jsonable(result.fitted_parameters),
         "parameter_units": to_jsonable(result.parameter_units),
@@ -416,6 +416,25 @@ def _insert_before_figures(out: Path, lines: list[str]) -> None:
     write_text(md, text[:cut] + "\n".join(lines) + "\n" + text[cut:])
 
 
+def _structure_list(result: DiscrepancyResult) -> list[float] | None:
+    """The per-joint shares of the structure check, as a JSON list (None where the record was too short)."""
+    return None if result.residual_structure is None else [float(v) for v in result.residual_structure]
+
+
+def _largest_share(result: DiscrepancyResult) -> float:
+    """The structure check's largest share of one joint's residual variance, %, 0 where it predicts nothing."""
+    return 100.0 * max(max(result.residual_structure), 0.0)
+
+
+def _share_text(shares) -> str:
+    return "-" if shares is None else f"{100 * max(max(shares), 0.0):.0f}"
+
+
+def _repeats(shares) -> bool:
+    """Whether a run's per-joint structure shares reach the workflow's flag."""
+    return shares is not None and max(shares) >= WorkflowSettings().structure_share
+
+
 def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,
                             result: DiscrepancyResult, size_factor: float = 1.0) -> dict:
     """After the blind analysis: add the hidden effect, the true parameters and the oracle to the report."""
@@ -448,6 +467,7 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "oracle_shrink": oracle_shrink,
         "oracle_fitted_parameters": to_jsonable(fit.fitted_parameters),
         "fraction_of_oracle_shrink": fraction,
+        "oracle_residual_structure": _structure_list(fit),
     })
     write_json(report_path, document)
     units = _unit_names(result.units)
@@ -471,6 +491,11 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "",
         f"- shrink: workflow {100 * result.shrink:.1f} %, oracle {100 * oracle_shrink:.1f} %"
         + (f"; the workflow reached {100 * fraction:.0f} % of the oracle's shrink" if fraction is not None else ""),
+        *([] if fit.residual_structure is None or result.residual_structure is None else [
+            f"- repeatable structure of the residual left (largest share of one joint's variance): workflow "
+            f"{_largest_share(result):.0f} %, oracle {_largest_share(fit):.0f} % (flagged at "
+            f"{100 * WorkflowSettings().structure_share:.0f} %): the oracle's shows what a model of the right "
+            "structure, fitted to this record, still leaves"]),
         "",
         "Named effects, fitted beside true values:",
         "",
@@ -559,7 +584,7 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
                 "rivals": {k: dict(v) for k, v in result.rivals.items()},
                 "unexplained": result.unexplained, "gap_before": pooled_rmse(result.residual_before.joints, result.units),
                 "shrink": float(result.shrink), "oracle_shrink": oracle_shrink,
-                "residual_structure": None if result.residual_structure is None else list(result.residual_structure),
+                "residual_structure": _structure_list(result), "oracle_residual_structure": _structure_list(fit),
                 "signature": list(result.signature), "command_shrink": _command_shrink(result)}
 
     jobs = [(e, s) for e in effects for s in seeds]
@@ -578,8 +603,10 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         gap = np.array([r["gap_before"] for r in mine])
         goal = named >= 0.8 * len(mine) and (e in UNMODELLED_EFFECTS
                                              or bool(np.all(shrink >= np.minimum(50.0, 0.8 * closable))))
-        left = sum(bool(r["named"]) and r["unexplained"] for r in mine)
-        summary_rows.append([e, f"{named} of {len(mine)}" + (f" ({left} then unexplained)" if left else ""),
+        left = [r for r in mine if r["named"] and r["unexplained"]]
+        also = sum(_repeats(r.get("oracle_residual_structure")) for r in left)
+        flags = f" ({len(left)} then unexplained, the oracle's residual too in {also})" if left else ""
+        summary_rows.append([e, f"{named} of {len(mine)}" + flags,
                              f"{np.mean(gap):.4f}",
                              f"{np.mean(shrink):.1f} [{np.min(shrink):.1f}, {np.max(shrink):.1f}]",
                              f"{np.mean(closable):.1f} [{np.min(closable):.1f}, {np.max(closable):.1f}]",
@@ -589,7 +616,7 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
                  "; ".join(f"{k} ~ {n} ({d:.2f})" for k, v in r.get("rivals", {}).items() for n, d in v.items()),
                  r["gap_before"],
                  100 * r["shrink"], 100 * r["oracle_shrink"],
-                 "-" if r.get("residual_structure") is None else f"{100 * max(max(r['residual_structure']), 0.0):.0f}",
+                 _share_text(r.get("residual_structure")), _share_text(r.get("oracle_residual_structure")),
                  "-" if r.get("command_shrink") is None else f"{100 * r['command_shrink']:.1f}"]
                 for r in runs]
     sizes = "at their default sizes" if size_factor == 1.0 else f"at {size_factor:g} times their default sizes"
@@ -603,7 +630,8 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         "flag the residual unexplained. Gap: the starting model's held-out gap (pooled RMSE, deg and "
         "mm). Shrink and oracle shrink: mean [min, max] over the seeds, %; the oracle is the generator's true "
         "structure fitted to the same fit part by the same steps; 'then unexplained': runs that named an effect "
-        "and still left a residual that repeats. Goal: named first on at least 4 of 5 seeds "
+        "and still left a residual that repeats, and in how many of them the oracle's residual repeats as well (a "
+        "model of the right structure fitted to that record leaves it too). Goal: named first on at least 4 of 5 seeds "
         "and, on every seed, a shrink of at least 50 % or 80 % of the oracle's.", "",
         markdown_table(["hidden", "named first", "gap", "shrink %", "oracle shrink %", "goal met"], summary_rows), "",
         "## Confusion matrix", "",
@@ -618,11 +646,13 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         "Structure %: the largest share of one joint's variance of the residual the final model leaves that the generic "
         "term library predicts on blocks it was not fitted to (0 where it predicts no better than the blocks' "
         "means; flagged unexplained at "
-        f"{100 * WorkflowSettings().structure_share:.0f} % or more). Command shrink %: how much of the held-out "
+        f"{100 * WorkflowSettings().structure_share:.0f} % or more); oracle structure %: the same for the "
+        "residual the oracle leaves. Command shrink %: how much of the held-out "
         "gap between the logged commands and the controller's law the named effects close (only a "
         "controller candidate closes any).", "",
         markdown_table(["hidden", "seed", "named", "indistinguishable", "rivals (BIC higher by)", "gap", "shrink %",
-                        "oracle shrink %", "structure %", "command shrink %"], run_rows, digits=4),
+                        "oracle shrink %", "structure %", "oracle structure %", "command shrink %"], run_rows,
+                       digits=4),
         ""])
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "confusion.md", text)

@@ -145,6 +145,8 @@ def test_nothing_hidden_names_nothing(cli_runs):
     # nothing named: the residual was checked for structure that repeats, and none was found
     assert len(report["residual_structure"]) == 3
     assert max(report["residual_structure"]) < WorkflowSettings().structure_share
+    # with nothing hidden the oracle is the starting model: the same residual, the same check
+    assert report["oracle_residual_structure"] == report["residual_structure"]
     text = (cli_runs("none") / "report.md").read_text()
     assert "repeatable structure of the residual the final model leaves" in text
 
@@ -156,9 +158,12 @@ def test_an_effect_missing_from_the_library_is_unexplained_with_a_signature(cli_
     assert report["named_effects"] == [], report["named_effects"]
     assert report["signature"], "an unexplained residual needs a signature"
     assert all(isinstance(s, str) and s for s in report["signature"])
-    # the oracle (the true structure fitted) closes what the library could not
+    # the oracle (the true structure fitted) closes what the library could not, and leaves no
+    # residual that repeats: the flag was raised by the missing effect, not by the check itself
     assert report["hidden_effect"] == ["capstan_runout"]
     assert "capstan_runout" in report["oracle_fitted_parameters"]
+    share = WorkflowSettings().structure_share
+    assert max(report["oracle_residual_structure"]) < share <= max(report["residual_structure"])
 
 
 def test_generation_and_analysis_meet_only_through_the_file(cli_runs, tmp_path):
