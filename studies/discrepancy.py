@@ -59,6 +59,8 @@ from studies.common.discrepancy_runs import (
     run_ablation,
     run_on_dvrk,
     run_on_raven_dataset,
+    SHORT_RECORD_S,
+    short_record_note,
     true_values,
     verdict,
     write_measured,
@@ -306,6 +308,9 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     document = report_document(result, source, runtime_s, starting_structure, analysis)
+    note = short_record_note(signals)
+    document["record_s"] = float(signals.time[-1] - signals.time[0])
+    document["short_record"] = note
     json_path = write_json(out / "report.json", document)
     units = _unit_names(result.units)
     before_state = result.model_before.replay(signals)
@@ -328,6 +333,7 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         "",
         f"{kind}. Starting structure: {start}. Candidates screened: {', '.join(result.library) or 'none'}.",
         "",
+        *([] if note is None else [f"**Short record:** {note}.", ""]),
         f"- named effects (in order): {', '.join(result.named_effects) or 'none'}",
         *[f"- {named} was named by a BIC margin of at most {WorkflowSettings().bic_tie:g} over "
           + ", ".join(f"{name} (BIC higher by {d:.2f})" for name, d in rivals.items())
@@ -624,6 +630,9 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         "# Hidden vs named effects (blind analysis of generated files)", "",
         f"Seeds {list(seeds)}, {duration:.0f} s of random motion per run, hidden effects {sizes}; starting "
         f"structure {', '.join(STARTING_STRUCTURE)}; library {', '.join(LIBRARY)}.", "",
+        *([] if duration >= SHORT_RECORD_S else [
+            f"**Short records:** under {SHORT_RECORD_S:.0f} s the starting structure, identified on each record's "
+            "first half, may itself leave a gap that a candidate then takes.", ""]),
         "## Per hidden effect", "",
         "Named first: runs whose first named effect is the hidden one (or one the data cannot tell from it, "
         "e.g. the two kinds of per-homing offset); for an effect the library lacks, runs that name nothing and "
@@ -730,6 +739,9 @@ def main(argv=None) -> int:
             result, signals, split = analyse(args.measured, study.folder, arm=args.arm, progress=progress)
         study.publish()
     units = _unit_names(result.units)
+    note = short_record_note(signals)
+    if note is not None:
+        print(f"warning: {note}", file=sys.stderr)
     print(f"named effects: {', '.join(result.named_effects) or 'none'}; unexplained: {result.unexplained}")
     for name, b, a, u in zip(result.joint_names, _scaled(result.gap_before, result.units),
                              _scaled(result.gap_after, result.units), units):

@@ -260,6 +260,8 @@ def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
     assert report["rivals"] == {k: dict(v) for k, v in result.rivals.items()}
     assert all(isinstance(it["rivals"], dict) for it in report["iterations"])
     assert len(report["residual_structure"]) == 2  # checked after the named effects too
+    # 30 s of generic data: the short-record warning is about the RAVEN-II starting structure only
+    assert report["record_s"] == pytest.approx(29.99) and report["short_record"] is None
     # parameters in SI with their units, reported in degrees and millimetres
     first = report["named_effects"][0]
     assert set(report["parameter_units"][first]) == set(report["fitted_parameters"][first])
@@ -274,6 +276,24 @@ def _raven_like_signals(truth, time):
     n = time.size
     return MeasuredSignals(time=time, truth=truth, reported=truth, drive=truth, torque=None, payload_kg=np.zeros(n),
                            homing=np.zeros(n, int), joint_names=("a", "b"), units=("rad", "m"))
+
+
+def test_a_raven_record_under_a_minute_is_reported_as_short_and_a_minute_is_not():
+    from dataclasses import replace
+
+    from studies.common.discrepancy_runs import SHORT_RECORD_S, short_record_note
+
+    assert SHORT_RECORD_S == 60.0
+
+    def signals(seconds, kind="raven"):
+        time = np.arange(int(round(seconds * 30)) + 1) / 30.0
+        truth = np.column_stack([0.3 * np.sin(0.7 * time), 0.02 * np.sin(1.3 * time)])
+        return replace(_raven_like_signals(truth, time), kind=kind)
+
+    note = short_record_note(signals(30.0))
+    assert note.startswith("the record lasts 30 s, under 60 s")
+    assert short_record_note(signals(60.0)) is None
+    assert short_record_note(signals(30.0, kind="generic")) is None
 
 
 def test_the_replay_velocity_is_causal_and_does_not_lag():

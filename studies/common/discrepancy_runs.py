@@ -262,6 +262,26 @@ def analyse_measured(path, *, progress: bool = False) -> tuple[DiscrepancyResult
     return run_on_raven_dataset(read_measured(path), progress=progress)
 
 
+SHORT_RECORD_S = 60.0
+"""RAVEN-II records shorter than this (s) get a warning in the report. The starting structure is
+identified on the record's first half, and on a short record it may itself leave a gap that a
+candidate then takes: with nothing hidden, 30 s records named an effect on 4 of 5 seeds (hysteresis
+twice, capstan friction, backlash), 60 s records on none (``python studies/discrepancy.py --sweep
+--effects none --seeds 5 --duration 30``, and ``--duration 60``)."""
+
+
+def short_record_note(signals: MeasuredSignals) -> str | None:
+    """A sentence on why the names of an analysis of a short RAVEN-II record are in doubt, or None."""
+    if signals.kind != "raven":
+        return None
+    seconds = float(signals.time[-1] - signals.time[0])
+    if seconds >= SHORT_RECORD_S:
+        return None
+    return (f"the record lasts {seconds:.0f} s, under {SHORT_RECORD_S:.0f} s: the starting structure, identified "
+            "on its first half, may itself leave a gap that a candidate then takes (with nothing hidden, 30 s "
+            "of random motion named an effect on 4 of 5 seeds, 60 s on none)")
+
+
 def verdict(named, unexplained: bool) -> str:
     """What an analysis reported, in a few words: the ``named`` effects, and whether a residual was
     left ``unexplained`` ("hysteresis (then unexplained)", "unexplained", "none")."""
