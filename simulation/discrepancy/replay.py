@@ -211,8 +211,8 @@ class _SeriesMemo:
     def series(self, base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma,
                start, restart, capstan) -> tuple[np.ndarray, np.ndarray]:
         arrays = (base, load, dry, softening, start, restart)
-        key = (base.shape[0], _series_fingerprint(*arrays),
-               float(stiffness), float(hardening), float(hysteresis_stiffness), float(beta), float(gamma), float(capstan))
+        scalars = (stiffness, hardening, hysteresis_stiffness, beta, gamma, capstan)
+        key = (base.shape[0], _series_fingerprint(*arrays)) + tuple(float(v) for v in scalars)
         for remembered, result in self._results.get(key, ()):
             if _same_series_inputs(*arrays, *remembered):
                 self._results.move_to_end(key)
@@ -406,8 +406,8 @@ class RavenModel:
             columns = [np.ascontiguousarray(a.T) for a in (base, load, softening, first)]
             for i in range(3):
                 link[:, i], z[:, i] = _SERIES.series(
-                    columns[0][i], columns[1][i], np.full(n, force[i]), columns[2][i], law.stiffness[i], law.hardening[i], k_h[i],
-                    beta[i], gamma[i], columns[3][i], signals.restarts, capstan[i])
+                    columns[0][i], columns[1][i], np.full(n, force[i]), columns[2][i], law.stiffness[i],
+                    law.hardening[i], k_h[i], beta[i], gamma[i], columns[3][i], signals.restarts, capstan[i])
             stretch = base - link
             tension = cable_tension_curve(stretch, law.stiffness, law.hardening)
             if drifts:
