@@ -54,6 +54,7 @@ from studies.common.discrepancy_runs import (
     analyse_measured,
     check_hidden,
     generate_measured,
+    largest_share,
     oracle,
     read_measured,
     run_ablation,
@@ -427,13 +428,9 @@ def _structure_list(result: DiscrepancyResult) -> list[float] | None:
     return None if result.residual_structure is None else [float(v) for v in result.residual_structure]
 
 
-def _largest_share(result: DiscrepancyResult) -> float:
-    """The structure check's largest share of one joint's residual variance, %, 0 where it predicts nothing."""
-    return 100.0 * max(max(result.residual_structure), 0.0)
-
-
 def _share_text(shares) -> str:
-    return "-" if shares is None else f"{100 * max(max(shares), 0.0):.0f}"
+    share = largest_share(shares)
+    return "-" if share is None else f"{share:.0f}"
 
 
 def _repeats(shares) -> bool:
@@ -499,7 +496,8 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         + (f"; the workflow reached {100 * fraction:.0f} % of the oracle's shrink" if fraction is not None else ""),
         *([] if fit.residual_structure is None or result.residual_structure is None else [
             f"- repeatable structure of the residual left (largest share of one joint's variance): workflow "
-            f"{_largest_share(result):.0f} %, oracle {_largest_share(fit):.0f} % (flagged at "
+            f"{largest_share(result.residual_structure):.0f} %, oracle {largest_share(fit.residual_structure):.0f} % "
+            "(flagged at "
             f"{100 * WorkflowSettings().structure_share:.0f} %): the oracle's shows what a model of the right "
             "structure, fitted to this record, still leaves"]),
         "",

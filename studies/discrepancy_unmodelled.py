@@ -114,11 +114,12 @@ def run(seeds, duration: float, amplitude_deg: float, n_jobs: int = -1, backend:
 
 
 def tables(results: dict) -> list[str]:
-    from studies.common.discrepancy_runs import verdict
+    from studies.common.discrepancy_runs import largest_share, verdict
 
     rows = []
     for r in results["runs"]:
-        structure = "-" if r["residual_structure"] is None else f"{100 * max(r['residual_structure']):.0f}"
+        share = largest_share(r["residual_structure"])
+        structure = "-" if share is None else f"{share:.0f}"
         rows.append([str(r["seed"]), ", ".join(f"{v:.4f}" for v in r["added_rms_deg"]),
                      f"{r['fit_gap']:.4f}, {r['validation_gap']:.4f}",
                      ", ".join(f"{v:.4f}" for v in r["gap_before"]), verdict(r["named_effects"], r["unexplained"]), structure,

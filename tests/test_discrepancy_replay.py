@@ -98,9 +98,25 @@ def test_the_library_holds_ten_candidates_and_says_why_one_cannot_apply(record):
     assert not already and "already in the model" in reason
 
 
-def test_remembered_cable_series_are_those_of_a_fresh_run_and_follow_every_input(record, monkeypatch):
+def _elbow_scaled(model, effect, field, factor):
+    """``model`` with one per-joint parameter of ``effect`` multiplied by ``factor`` on the elbow only."""
     from dataclasses import replace as with_values
 
+    old = model.params.effect(effect)
+    scaled = with_values(old, **{field: getattr(old, field) * np.array([1.0, factor, 1.0])})
+    return with_values(model, params=model.params.with_effect(scaled))
+
+
+def _replay_remembering_nothing(model, record, monkeypatch):
+    """The replay of ``model`` with the cable-series memo emptied and kept empty."""
+    from simulation.discrepancy import replay as replay_module
+
+    signals, _, robot = record
+    monkeypatch.setattr(replay_module, "_SERIES", replay_module._SeriesMemo(size=0))
+    return model.replay(signals, robot)
+
+
+def test_remembered_cable_series_are_those_of_a_fresh_run_and_follow_every_input(record, monkeypatch):
     from simulation.discrepancy import replay as replay_module
 
     signals, model, robot = record
@@ -111,12 +127,9 @@ def test_remembered_cable_series_are_those_of_a_fresh_run_and_follow_every_input
     first = hysteretic.replay(signals, robot)
     again = hysteretic.replay(signals, robot)
     # a stiffer elbow cable changes the elbow only, and what is remembered follows it
-    law = hysteretic.params.effect("cable_stretch")
-    stiffer = with_values(hysteretic, params=hysteretic.params.with_effect(
-        with_values(law, stiffness=law.stiffness * np.array([1.0, 1.5, 1.0]))))
+    stiffer = _elbow_scaled(hysteretic, "cable_stretch", "stiffness", 1.5)
     changed = stiffer.replay(signals, robot)
-    monkeypatch.setattr(replay_module, "_SERIES", replay_module._SeriesMemo(size=0))
-    fresh_changed = stiffer.replay(signals, robot)
+    fresh_changed = _replay_remembering_nothing(stiffer, record, monkeypatch)
     np.testing.assert_array_equal(first.joints, again.joints)
     np.testing.assert_array_equal(changed.joints, fresh_changed.joints)
     assert np.max(np.abs(changed.joints[:, 1] - first.joints[:, 1])) > 1e-6
@@ -124,8 +137,6 @@ def test_remembered_cable_series_are_those_of_a_fresh_run_and_follow_every_input
 
 
 def test_a_fingerprint_collision_is_caught_by_the_element_wise_comparison(record, monkeypatch):
-    from dataclasses import replace as with_values
-
     from simulation.discrepancy import replay as replay_module
 
     signals, model, robot = record
@@ -133,13 +144,10 @@ def test_a_fingerprint_collision_is_caught_by_the_element_wise_comparison(record
     monkeypatch.setattr(replay_module, "_series_fingerprint", lambda *arrays: (0.0,) * 6)
     monkeypatch.setattr(replay_module, "_SERIES", replay_module._SeriesMemo())
     model.replay(signals, robot)
-    friction = model.params.effect("coulomb_friction")
     # more dry friction on the elbow changes one input array of the elbow's series, no scalar
-    stickier = with_values(model, params=model.params.with_effect(
-        with_values(friction, force=friction.force * np.array([1.0, 3.0, 1.0]))))
+    stickier = _elbow_scaled(model, "coulomb_friction", "force", 3.0)
     remembered = stickier.replay(signals, robot)
-    monkeypatch.setattr(replay_module, "_SERIES", replay_module._SeriesMemo(size=0))
-    fresh = stickier.replay(signals, robot)
+    fresh = _replay_remembering_nothing(stickier, record, monkeypatch)
     np.testing.assert_array_equal(remembered.joints, fresh.joints)
     assert np.max(np.abs(fresh.joints[:, 1] - model.replay(signals, robot).joints[:, 1])) > 1e-6
 

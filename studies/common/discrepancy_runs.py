@@ -282,6 +282,12 @@ def short_record_note(signals: MeasuredSignals) -> str | None:
             "of random motion named an effect on 4 of 5 seeds, 60 s on none)")
 
 
+def largest_share(shares) -> float | None:
+    """The structure check's largest share of one joint's residual variance, in %, 0 where the
+    library predicts no better than the blocks' means (None where the check did not run)."""
+    return None if shares is None else 100.0 * max(max(shares), 0.0)
+
+
 def verdict(named, unexplained: bool) -> str:
     """What an analysis reported, in a few words: the ``named`` effects, and whether a residual was
     left ``unexplained`` ("hysteresis (then unexplained)", "unexplained", "none")."""
