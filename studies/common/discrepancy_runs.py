@@ -266,8 +266,9 @@ SHORT_RECORD_S = 60.0
 """RAVEN-II records shorter than this (s) get a warning in the report. The starting structure is
 identified on the record's first half, and on a short record it may itself leave a gap that a
 candidate then takes: with nothing hidden, 30 s records named an effect on 4 of 5 seeds (hysteresis
-twice, capstan friction, backlash), 60 s records on none (``python studies/discrepancy.py --sweep
---effects none --seeds 5 --duration 30``, and ``--duration 60``)."""
+twice, capstan friction, backlash), 40 s and 50 s records on 1 of 5 (capstan friction, closing 25 % of
+a gap that is the base's own error; backlash, 4 %), 60 s records on none (``python
+studies/discrepancy.py --sweep --effects none --seeds 5 --duration 30``, then 40, 50 and 60)."""
 
 
 def short_record_note(signals: MeasuredSignals) -> str | None:
@@ -279,7 +280,7 @@ def short_record_note(signals: MeasuredSignals) -> str | None:
         return None
     return (f"the record lasts {seconds:.0f} s, under {SHORT_RECORD_S:.0f} s: the starting structure, identified "
             "on its first half, may itself leave a gap that a candidate then takes (with nothing hidden, 30 s "
-            "of random motion named an effect on 4 of 5 seeds, 60 s on none)")
+            "of random motion named an effect on 4 of 5 seeds, 40 s and 50 s on 1 of 5, 60 s on none)")
 
 
 def largest_share(shares) -> float | None:
