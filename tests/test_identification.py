@@ -15,8 +15,10 @@ from simulation.identification import (
     MotorLog,
     NotIdentifiableError,
     PoorlyIdentifiedWarning,
+    as_motor_log,
     identify,
     nominal_parameters,
+    prepare_samples,
 )
 from simulation.model.effects import CableStretch
 from simulation.model.parameters import RavenParameters
@@ -277,6 +279,36 @@ def test_a_log_without_truth_or_with_nan_is_refused():
     with pytest.raises(ValueError, match="NaN at row 7"):
         identify(MotorLog(time=log.time, motor_positions=positions, motor_torques=np.zeros((n, 3)),
                           joints=np.ones((n, 3))))
+
+
+def test_a_joint_correction_moves_the_compared_joints_and_not_the_pose_of_the_loads(simulated):
+    # a registration offset of 0.3 deg on the elbow after the log's middle (a re-homing): the links
+    # are where the encoders say, so their loads and velocities must not move with the correction
+    params, recording = simulated
+    log = as_motor_log(recording)
+    correction = np.zeros((len(log), 3))
+    correction[len(log) // 2:, 1] = np.deg2rad(0.3)
+    plain = prepare_samples(log, params)
+    corrected = prepare_samples(log, params, joint_correction=correction)
+    for name in ("gravity", "inertial", "joint_velocity", "joint_acceleration", "motor", "motor_torque"):
+        np.testing.assert_array_equal(getattr(corrected, name), getattr(plain, name), err_msg=name)
+    rows = np.searchsorted(log.time, plain.time)
+    np.testing.assert_allclose(corrected.joints, plain.joints - correction[rows], rtol=0, atol=1e-15)
+    # the pose matters: the same offset subtracted from the log's joints moves the gravity it computes
+    shifted = MotorLog(time=log.time, motor_positions=log.motor_positions, motor_torques=log.motor_torques,
+                       joints=log.joints - correction, payload_kg=log.payload_kg, arm=log.arm)
+    assert np.max(np.abs(prepare_samples(shifted, params).gravity - plain.gravity)) > 1e-4
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda c: c[:-1], r"one row of 3 per log sample, shape \(\d+, 3\); got \(\d+, 3\)"),
+    (lambda c: np.where(np.arange(len(c))[:, None] == 5, np.nan, c), "NaN or infinite"),
+])
+def test_a_joint_correction_of_the_wrong_shape_or_with_nan_is_refused(simulated, change, message):
+    params, recording = simulated
+    log = as_motor_log(recording)
+    with pytest.raises(ValueError, match=message):
+        prepare_samples(log, params, joint_correction=change(np.zeros((len(log), 3))))
 
 
 def test_motor_log_refuses_time_that_does_not_increase():

@@ -135,6 +135,8 @@ IN_PROCESS_MISTAKES = [
     ("discrepancy", ["--measured", "{tmp}/empty"], "holds no .bag or .parquet"),
     ("discrepancy", ["--measured", "{tmp}/empty", "--joints", "0,7"], "--joints"),
     ("discrepancy_convergence", ["--iterations", "30,0"], "--iterations"),
+    ("discrepancy_homing", ["--sizes", "1,0"], "--sizes"),
+    ("discrepancy_homing", ["--sizes", "1,nan"], "--sizes"),
     ("discrepancy_convergence", ["--effect", "none"], "hides nothing"),
     ("discrepancy_convergence", ["--effect", "magic"], "unknown hidden effect 'magic'"),
     ("directions", ["--directions", "J2-J3,J4"], "unknown direction 'J4'"),

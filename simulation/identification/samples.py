@@ -81,7 +81,8 @@ class IdentificationSamples:
     motor, motor_velocity, motor_acceleration : (N, 3) motor coordinates ``u`` (motor angle over
         transmission ratio) and their first two derivatives.
     motor_torque : (N, 3) commanded torque on the motor coordinates, ``tau * ratio / gearbox``.
-    joints, joint_velocity, joint_acceleration : (N, 3) ground truth ``q`` and derivatives.
+    joints, joint_velocity, joint_acceleration : (N, 3) ground truth ``q`` and derivatives (the
+        joints less a :func:`prepare_samples` correction, the derivatives of the joints as measured).
     gravity : (N, 3) gravity holding torques ``g(q)`` of the arm with the sample's payload.
     inertial : (N, 3) link inertial torques ``M(q) q''``.
     n_dropped : log samples not used (segment ends, segments shorter than the window).
@@ -109,7 +110,8 @@ def _derivatives(values: np.ndarray, window: int, step: float) -> tuple[np.ndarr
     return first, second
 
 
-def prepare_samples(log, params: RavenParameters, window: float = DERIVATIVE_WINDOW) -> IdentificationSamples:
+def prepare_samples(log, params: RavenParameters, window: float = DERIVATIVE_WINDOW,
+                    joint_correction: np.ndarray | None = None) -> IdentificationSamples:
     """Derivatives, gravity and inertia of a log with ground truth, ready for :func:`identify`.
 
     Parameters
@@ -117,15 +119,30 @@ def prepare_samples(log, params: RavenParameters, window: float = DERIVATIVE_WIN
     log : MotorLog, CalibrationDataset or Recording with ground-truth joints.
     params : the arm's parameter set (constants, gravity vector).
     window : Savitzky-Golay window (s).
+    joint_correction : (N, 3), one row per log sample (rad, rad, m): what an effect outside the
+        model adds between the motors and the measured joints (e.g. a registration offset per
+        homing). It is subtracted from the joints the joint residual compares, and from nothing
+        else: the links are where the encoders measure them, so their loads and velocities come
+        from the measured joints. (Subtracted from the log itself, a registration offset of 0.3 deg
+        would move the pose the gravity is computed at by as much.)
 
     Raises
     ------
     ValueError
-        The log has no ground truth, holds NaN, or has no segment longer than two windows.
+        The log has no ground truth, holds NaN, or has no segment longer than two windows, or the
+        correction does not have one finite row per log sample.
     """
     log = as_motor_log(log)
     if not log.has_truth:
         raise ValueError("identification needs ground-truth joints (external encoders) in the log")
+    if joint_correction is None:
+        joint_correction = np.zeros((len(log), 3))
+    joint_correction = np.asarray(joint_correction, dtype=float)
+    if joint_correction.shape != (len(log), 3):
+        raise ValueError(f"joint_correction must have one row of 3 per log sample, shape ({len(log)}, 3); "
+                         f"got {joint_correction.shape}")
+    if not np.all(np.isfinite(joint_correction)):
+        raise ValueError("joint_correction holds NaN or infinite values")
     for name in ("motor_positions", "motor_torques"):
         values = getattr(log, name)
         if np.any(np.isnan(values)):
@@ -153,7 +170,8 @@ def prepare_samples(log, params: RavenParameters, window: float = DERIVATIVE_WIN
         keep = slice(width // 2, time.size - width // 2)
         pieces.append(dict(time=time[keep], motor=u[keep], motor_velocity=ud[keep], motor_acceleration=udd[keep],
                            motor_torque=tau_all[segment][keep], joints=q[keep], joint_velocity=qd[keep],
-                           joint_acceleration=qdd[keep], payload=payload_all[segment][keep]))
+                           joint_acceleration=qdd[keep], payload=payload_all[segment][keep],
+                           correction=joint_correction[segment][keep]))
     if not pieces:
         raise ValueError(f"no stretch of the log without gaps is longer than two derivative windows ({2 * window} s)")
     joined = {key: np.concatenate([piece[key] for piece in pieces]) for key in pieces[0]}
@@ -166,5 +184,6 @@ def prepare_samples(log, params: RavenParameters, window: float = DERIVATIVE_WIN
         gravity[rows], inertial[rows] = _gravity_and_inertia(
             np.ascontiguousarray(joined["joints"][rows]), np.ascontiguousarray(joined["joint_acceleration"][rows]),
             robot.gravity_coefficients(float(mass)))
+    joined["joints"] = joined["joints"] - joined.pop("correction")
     return IdentificationSamples(**joined, gravity=gravity, inertial=inertial,
                                  n_dropped=len(log) - joined["time"].size)

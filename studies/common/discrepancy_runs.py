@@ -166,33 +166,41 @@ def uninformed_start(arm: str = "left") -> RavenParameters:
     return nominal_parameters(arm)
 
 
-def identified_model(dataset, mask: np.ndarray, structure=STARTING_STRUCTURE) -> RavenModel:
+def identified_model(dataset, mask: np.ndarray, structure=STARTING_STRUCTURE,
+                     joint_correction: np.ndarray | None = None) -> RavenModel:
     """Step 0: the cable model of ``structure`` identified on the ``mask`` rows of the dataset,
-    starting from :func:`uninformed_start`."""
+    starting from :func:`uninformed_start`. ``joint_correction`` (one row per dataset row) is
+    subtracted from the joints the identification compares, not from the pose its loads are
+    computed at (:func:`~simulation.identification.samples.prepare_samples`)."""
     import warnings
 
     from simulation.identification import identify
+    from simulation.identification.samples import prepare_samples
 
+    start = uninformed_start(dataset.arm)
+    correction = None if joint_correction is None else np.asarray(joint_correction, dtype=float)[mask]
+    samples = prepare_samples(dataset.select(mask), start, joint_correction=correction)
     with warnings.catch_warnings():
         # how well each parameter is determined is reported by the identification itself; here the
         # workflow's refit and validation decide
         warnings.simplefilter("ignore")
-        result = identify(dataset.select(mask), effects=tuple(structure), base=uninformed_start(dataset.arm))
+        result = identify(samples, effects=tuple(structure), base=start)
     return RavenModel(result.parameters, np.asarray(result.offsets, dtype=float))
 
 
 def _with_corrections(dataset, correction, payload_kg: float = 0.0):
-    """The dataset with ``correction`` = (joints (N, 3), torques (N, 3) or None; or None)
-    subtracted from its ground-truth joints and its motor torques (the measurements with an
-    effect's share removed), and ``payload_kg`` added to the payload it declares."""
+    """The dataset with the torque part of ``correction`` = (joints (N, 3), torques (N, 3) or
+    None; or None) subtracted from its motor torques (the measurement with an effect's share
+    removed), and ``payload_kg`` added to the payload it declares. The joint part is not applied
+    here: it corrects the joints the identification compares, not the pose the links' loads are
+    computed at (:func:`identified_model`)."""
     from simulation.identification.motor_log import PAYLOAD_LABEL
     from simulation.model.constants import POSITIONING_NAMES
-    from simulation.recordings.dataset import TRUTH_COLUMNS, CalibrationDataset
+    from simulation.recordings.dataset import CalibrationDataset
 
     table = dataset.table.copy()
     if correction is not None:
-        joints, torques = correction
-        table.loc[:, list(TRUTH_COLUMNS)] = table[list(TRUTH_COLUMNS)].to_numpy() - joints
+        _, torques = correction
         if torques is not None and np.any(torques):
             columns = [f"tau.{n}" for n in POSITIONING_NAMES]
             table.loc[:, columns] = table[columns].to_numpy() - torques
@@ -208,7 +216,7 @@ def raven_base_identifier(dataset, fit_mask: np.ndarray, structure=STARTING_STRU
 
     def identify_structure(effects, correction, payload_kg=0.0):
         data = dataset if correction is None and not payload_kg else _with_corrections(dataset, correction, payload_kg)
-        return identified_model(data, fit_mask, effects)
+        return identified_model(data, fit_mask, effects, None if correction is None else correction[0])
 
     return BaseIdentifier(identify=identify_structure, fittable=tuple(FITTABLE_EFFECTS), structure=tuple(structure))
 
