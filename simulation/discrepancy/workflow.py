@@ -82,7 +82,7 @@ class WorkflowSettings:
         lowers it at all. The rounds converge slowly where the candidate moves the base a lot: with
         a homing offset hidden (seed 8, an elbow registration 0.32 deg apart between two
         homings) the second round lowered the residual by 0.8 % and the next four by 0.05 %
-        together, and those four took the elbow's residual spread from 0.0078 deg to 0.0056 deg,
+        together, and those four took the elbow's residual spread from 0.0078 deg to 0.0057 deg,
         what a base identified on one homing leaves (``python studies/discrepancy_homing.py``).
     accept_all : add the best fitted candidate of every iteration whatever it scores. Not for
         discovery: it fits a structure known in advance (the oracle of a study that generated the
