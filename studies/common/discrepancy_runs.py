@@ -188,22 +188,23 @@ def identified_model(dataset, mask: np.ndarray, structure=STARTING_STRUCTURE,
     return RavenModel(result.parameters, np.asarray(result.offsets, dtype=float))
 
 
-def _with_corrections(dataset, correction, payload_kg: float = 0.0):
-    """The dataset with the torque part of ``correction`` = (joints (N, 3), torques (N, 3) or
-    None; or None) subtracted from its motor torques (the measurement with an effect's share
-    removed), and ``payload_kg`` added to the payload it declares. The joint part is not applied
-    here: it corrects the joints the identification compares, not the pose the links' loads are
-    computed at (:func:`identified_model`)."""
+def _with_corrections(dataset, torques, payload_kg: float = 0.0):
+    """The dataset with ``torques`` (N, 3, or None) subtracted from its motor torques (the
+    measurement with an effect's share removed) and ``payload_kg`` added to the payload it
+    declares; the dataset itself when neither changes anything. An effect's share of the joints is
+    not applied here: it corrects the joints the identification compares, not the pose the links'
+    loads are computed at (:func:`identified_model`)."""
     from simulation.identification.motor_log import PAYLOAD_LABEL
     from simulation.model.constants import POSITIONING_NAMES
     from simulation.recordings.dataset import CalibrationDataset
 
+    shifts_torques = torques is not None and bool(np.any(torques))
+    if not shifts_torques and not payload_kg:
+        return dataset
     table = dataset.table.copy()
-    if correction is not None:
-        _, torques = correction
-        if torques is not None and np.any(torques):
-            columns = [f"tau.{n}" for n in POSITIONING_NAMES]
-            table.loc[:, columns] = table[columns].to_numpy() - torques
+    if shifts_torques:
+        columns = [f"tau.{n}" for n in POSITIONING_NAMES]
+        table.loc[:, columns] = table[columns].to_numpy() - torques
     if payload_kg:
         declared = table[PAYLOAD_LABEL].to_numpy(float) if PAYLOAD_LABEL in table else np.zeros(len(table))
         table[PAYLOAD_LABEL] = declared + payload_kg
@@ -215,8 +216,8 @@ def raven_base_identifier(dataset, fit_mask: np.ndarray, structure=STARTING_STRU
     from simulation.identification import FITTABLE_EFFECTS
 
     def identify_structure(effects, correction, payload_kg=0.0):
-        data = dataset if correction is None and not payload_kg else _with_corrections(dataset, correction, payload_kg)
-        return identified_model(data, fit_mask, effects, None if correction is None else correction[0])
+        joints, torques = (None, None) if correction is None else correction
+        return identified_model(_with_corrections(dataset, torques, payload_kg), fit_mask, effects, joints)
 
     return BaseIdentifier(identify=identify_structure, fittable=tuple(FITTABLE_EFFECTS), structure=tuple(structure))
 
