@@ -246,7 +246,11 @@ def gravity_torques_fast_batch(q3, coeffs):
     """:func:`gravity_torques_fast` over rows of ``q3`` (N, 3) -> (N, 3)."""
     out = np.empty((q3.shape[0], 3))
     for n in range(q3.shape[0]):
-        out[n] = gravity_torques_fast(q3[n], coeffs)
+        # element by element: numba compiles a row assignment from an array with a formatted
+        # shape-mismatch error, seconds of compilation per process
+        g = gravity_torques_fast(q3[n], coeffs)
+        for j in range(3):
+            out[n, j] = g[j]
     return out
 
 

@@ -314,3 +314,24 @@ def test_a_joint_correction_of_the_wrong_shape_or_with_nan_is_refused(simulated,
 def test_motor_log_refuses_time_that_does_not_increase():
     with pytest.raises(ValueError, match="increase strictly"):
         MotorLog(time=[0.0, 0.1, 0.1], motor_positions=np.zeros((3, 3)), motor_torques=np.zeros((3, 3)))
+
+
+@pytest.mark.parametrize("lags", [0, 1, 7, 49, 120])
+def test_the_newey_west_score_covariance_is_the_bartlett_weighted_sum_over_lags(lags):
+    # against the definition, pair by pair: sum over samples t, u at most `lags` apart of
+    # (1 - |t - u| / (lags + 1)) s_t s_u^T, s_t = J_t^T r_t; 120 lags exceed the 50 samples
+    from simulation.identification.fit import _hac_scores
+
+    rng = np.random.default_rng(lags)
+    n, channels, p = 50, 2, 3
+    jac = rng.normal(size=(n, channels, p))
+    residuals = np.cumsum(rng.normal(size=(n, channels)), axis=0)  # serially correlated
+    scores = np.einsum("nrp,nr->np", jac, residuals)
+    expected = np.zeros((p, p))
+    for t in range(n):
+        for u in range(n):
+            if abs(t - u) <= lags:
+                expected += (1.0 - abs(t - u) / (lags + 1.0)) * np.outer(scores[t], scores[u])
+    omega = _hac_scores(jac, residuals, lags)
+    np.testing.assert_allclose(omega, expected, rtol=1e-10, atol=1e-10 * np.abs(expected).max())
+    assert np.all(np.linalg.eigvalsh(omega) >= -1e-9 * np.abs(expected).max())  # a covariance

@@ -71,6 +71,9 @@ filter counts as diverged: beyond it the estimate says nothing about the arm's p
 DIVERGENCE_REASONS = ("non-finite prediction", "covariance beyond COVARIANCE_LIMIT",
                       "negative variance of a position")
 """Re-initialisation reasons that mean the filter diverged (rather than lost its readings)."""
+_POSITION_STATES = np.array([0, 1, 2, 6, 7, 8])
+"""Indices of the motor coordinates and joint positions in the state vector."""
+_POSITION_VARIANCE_LIMIT = np.tile(COVARIANCE_LIMIT ** 2, 2)
 LOST_SPREAD = np.array([0.5, 0.5, 0.05])
 """Smallest joint standard deviation (rad, rad, m) reported while the filter has lost the arm (no
 usable reading for ``max_gap`` seconds): the spread of the joints over a working motion."""
@@ -288,11 +291,10 @@ def _diverged(P: np.ndarray) -> str | None:
     a negative one (the unscented update of a covariance that grew far beyond the sigma points'
     reach) is not a covariance at all.
     """
-    spread = np.diagonal(P)
-    positions = np.r_[spread[:3], spread[6:9]]
-    if not np.all(np.isfinite(P)) or np.any(positions > np.tile(COVARIANCE_LIMIT ** 2, 2)):
+    positions = np.diagonal(P)[_POSITION_STATES]
+    if not np.isfinite(P).all() or (positions > _POSITION_VARIANCE_LIMIT).any():
         return "covariance beyond COVARIANCE_LIMIT"
-    if np.any(positions < 0.0):
+    if (positions < 0.0).any():
         return "negative variance of a position"
     return None
 

@@ -30,13 +30,13 @@ def interpolate_trajectory(traj_q, traj_qd, rate, t, out_q, out_qd):
     n = traj_q.shape[0]
     x = t * rate
     i = int(np.floor(x))
-    if i >= n - 1:
-        out_q[:] = traj_q[n - 1]
-        out_qd[:] = traj_qd[n - 1]
-        return
-    if i < 0:
-        out_q[:] = traj_q[0]
-        out_qd[:] = traj_qd[0]
+    if i >= n - 1 or i < 0:
+        # element by element: numba compiles a slice assignment from an array with a formatted
+        # shape-mismatch error, seconds of compilation per process
+        end = n - 1 if i >= 0 else 0
+        for k in range(traj_q.shape[1]):
+            out_q[k] = traj_q[end, k]
+            out_qd[k] = traj_qd[end, k]
         return
     s = x - i
     h = 1.0 / rate
@@ -159,7 +159,9 @@ def servo_control(mode, ctrl, table, flags, tr, a_nom_inv, gb, tsign, dt, grav_c
     if mode == MODE_TRAJECTORY:
         for i in range(3):
             q3[i] = jpos[i]
-        gctrl[:] = gravity_torques_fast(q3, grav_ctrl)
+        g = gravity_torques_fast(q3, grav_ctrl)
+        for i in range(3):
+            gctrl[i] = g[i]
     for j in range(7):
         err = mpos_d[j] - mpos[j]
         ctrl[C_INT + j] += err * dt

@@ -146,7 +146,10 @@ def refresh_inertia(q3, grav_plant, mass, inv_mass, unit, column):
 
     ``unit``, ``column`` (3,) are scratch.
     """
-    mass[:, :] = mass_matrix_fast(q3, grav_plant)
+    m = mass_matrix_fast(q3, grav_plant)
+    for i in range(3):
+        for j in range(3):
+            mass[i, j] = m[i, j]
     for i in range(3):
         unit[:] = 0.0
         unit[i] = 1.0

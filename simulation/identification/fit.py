@@ -299,7 +299,9 @@ def _structural_check(problem: _Problem, xi: np.ndarray, sigma: np.ndarray) -> N
         raise NotIdentifiableError(
             f"the data carry no information on {', '.join(silent)} (no motion or no load change moves them); "
             "record motion that excites them or hold them fixed")
-    _, singular, vt = np.linalg.svd(jac / norms, full_matrices=False)
+    # the singular values and directions of the tall (samples x unknowns) matrix are those of its
+    # triangular factor, whose decomposition is the cheaper route
+    _, singular, vt = np.linalg.svd(np.linalg.qr(jac / norms, mode="r"))
     weak = np.flatnonzero(singular < RANK_TOLERANCE * singular[0])
     if weak.size:
         groups = []
@@ -312,14 +314,22 @@ def _structural_check(problem: _Problem, xi: np.ndarray, sigma: np.ndarray) -> N
 
 
 def _hac_scores(jac: np.ndarray, residuals: np.ndarray, lags: int) -> np.ndarray:
-    """Newey-West estimate of the covariance of the summed scores ``J_n^T r_n``."""
+    """Newey-West estimate of the covariance of the summed scores ``J_n^T r_n``.
+
+    The Bartlett-weighted sum over lags ``sum_{|l| <= L} (1 - |l| / (L + 1)) sum_t s_{t+l} s_t^T``
+    is computed as ``W^T W / (L + 1)``, ``W`` the sums of the scores over every window of ``L + 1``
+    consecutive samples of the series padded with ``L`` zeros at each end: a pair of samples ``l``
+    apart shares ``L + 1 - l`` such windows. One product of ``n + L`` rows instead of one per lag.
+    """
     scores = np.einsum("nrp,nr->np", jac, residuals)
-    omega = scores.T @ scores
-    for lag in range(1, min(lags, scores.shape[0] - 1) + 1):
-        weight = 1.0 - lag / (lags + 1.0)
-        cross = scores[lag:].T @ scores[:-lag]
-        omega += weight * (cross + cross.T)
-    return omega
+    lags = max(int(lags), 0)
+    if lags == 0:
+        return scores.T @ scores
+    cumulative = np.zeros((scores.shape[0] + 2 * lags + 1, scores.shape[1]))
+    np.cumsum(scores, axis=0, out=cumulative[lags + 1:lags + 1 + scores.shape[0]])
+    cumulative[lags + 1 + scores.shape[0]:] = cumulative[lags + scores.shape[0]]
+    windows = cumulative[lags + 1:] - cumulative[:-(lags + 1)]
+    return windows.T @ windows / (lags + 1.0)
 
 
 def _covariance(jac: np.ndarray, residuals: np.ndarray, used: np.ndarray, method: str,

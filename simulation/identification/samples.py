@@ -59,8 +59,13 @@ def _gravity_and_inertia(q, qdd, coefficients):
     gravity = np.empty((n, 3))
     inertial = np.empty((n, 3))
     for i in range(n):
-        gravity[i] = gravity_torques_fast(q[i], coefficients)
-        inertial[i] = mass_matrix_fast(q[i], coefficients) @ qdd[i]
+        # element by element: numba compiles a row assignment from an array with a formatted
+        # shape-mismatch error, seconds of compilation per process
+        g = gravity_torques_fast(q[i], coefficients)
+        a = mass_matrix_fast(q[i], coefficients) @ qdd[i]
+        for j in range(3):
+            gravity[i, j] = g[j]
+            inertial[i, j] = a[j]
     return gravity, inertial
 
 
