@@ -8,6 +8,9 @@ compiled by the system C compiler and as many times in casadi's virtual machine
 (``RAVEN_CALIBRATION_COMPILE=0``), and prints the median seconds of each, the speed-up
 (``speedup <ratio>``) and the largest difference between the two fits' estimates, in standard
 errors. The first compiled fit includes the compilation; later fits of the same structure reuse it.
+It also times the Newey-West score covariance of the fit's Jacobian (one second of lags) as the
+identification computes it, from window sums, against the lag-by-lag sum it replaces, and prints
+their largest relative difference.
 """
 
 from __future__ import annotations
@@ -23,6 +26,45 @@ from simulation.engine.scenarios import powered_on, record_random_test
 from simulation.identification import FITTABLE_EFFECTS, PoorlyIdentifiedWarning, identify
 from simulation.identification import compiled
 from simulation.model.parameters import RavenParameters
+
+
+def lag_by_lag_scores(jac: np.ndarray, residuals: np.ndarray, lags: int) -> np.ndarray:
+    """The Bartlett-weighted score covariance as one product per lag (the reference)."""
+    scores = np.einsum("nrp,nr->np", jac, residuals)
+    omega = scores.T @ scores
+    for lag in range(1, min(lags, scores.shape[0] - 1) + 1):
+        cross = scores[lag:].T @ scores[:-lag]
+        omega += (1.0 - lag / (lags + 1.0)) * (cross + cross.T)
+    return omega
+
+
+def hac_timing(recording) -> None:
+    """Time the score covariance both ways on the Jacobian and residuals of one fit."""
+    from simulation.identification import fit
+
+    captured = {}
+    covariance = fit._covariance
+
+    def keep(jac, residuals, used, method, lags):
+        captured.update(jac=jac, residuals=residuals, lags=lags)
+        return covariance(jac, residuals, used, method, lags)
+
+    fit._covariance = keep
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PoorlyIdentifiedWarning)
+            identify(recording, effects=FITTABLE_EFFECTS)
+    finally:
+        fit._covariance = covariance
+    jac, residuals, lags = captured["jac"], captured["residuals"], captured["lags"]
+    timings = {}
+    for name, function in (("window sums", fit._hac_scores), ("lag by lag", lag_by_lag_scores)):
+        started = time.process_time()
+        timings[name] = (function(jac, residuals, lags), time.process_time() - started)
+    (fast, t_fast), (slow, t_slow) = timings["window sums"], timings["lag by lag"]
+    print(f"Newey-West score covariance ({jac.shape[0]} samples, {jac.shape[2]} unknowns, {lags} lags): window sums "
+          f"{1e3 * t_fast:.1f} ms, lag by lag {1e3 * t_slow:.1f} ms (ratio {t_slow / max(t_fast, 1e-9):.0f}); "
+          f"largest relative difference {np.max(np.abs(fast - slow)) / np.max(np.abs(slow)):.1e}")
 
 
 def timed_fits(recording, repeats: int) -> tuple[list[float], object]:
@@ -48,6 +90,7 @@ def main() -> None:
     robot = powered_on(RavenParameters(), seed=args.seed)
     recording = record_random_test(robot, args.seconds, seed=args.seed)
     fast, fast_result = timed_fits(recording, args.repeats)
+    hac_timing(recording)
     os.environ[compiled.COMPILE_ENV] = "0"
     compiled._CACHE.clear()
     slow, slow_result = timed_fits(recording, args.repeats)
