@@ -157,9 +157,9 @@ def _velocity_scale(model) -> np.ndarray:
 
 DRIFT_REFERENCE_SPEED = np.array([0.1, 0.1, 0.01])
 """Speed (rad/s, rad/s, m/s) at which the drift candidate's fatigue dose runs one hour per hour of
-motion: a round typical joint speed during calibration. The candidate's rates are per such hour;
-it ages the cables with travel alone (no payload term), since how a payload speeds aging is not
-something a log states."""
+motion: a round typical joint speed during calibration. The candidate's rates are per such hour
+of the log's own clock (``time_scale`` 1: a log's time is not compressed); it ages the cables with
+travel alone (no payload term), since how a payload speeds aging is not something a log states."""
 
 
 def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
@@ -209,7 +209,8 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
                                            ("rad/h", "rad/h", "m/h")),
                             ParameterBlock("stiffness_loss", 3, 0.0, 1000.0, 0.5, 0.0, "1/h")),
                   _raven_effect(lambda m, v: Drift(creep_rate=v["creep_rate"], stiffness_loss=v["stiffness_loss"],
-                                                   reference_speed=DRIFT_REFERENCE_SPEED, payload_gain=np.zeros(3))),
+                                                   reference_speed=DRIFT_REFERENCE_SPEED, payload_gain=np.zeros(3),
+                                                   time_scale=1.0)),
                   _raven_only),
         Candidate("transmission_error", (ParameterBlock("ratio_error", 3, -0.1, 0.1, 1e-3, 0.0, "1"),),
                   _raven_effect(lambda m, v: TransmissionError(ratio_error=v["ratio_error"])), _raven_only),
