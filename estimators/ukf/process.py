@@ -188,7 +188,7 @@ class ProcessModel:
         """All sigma points (m, 12 or 15) at once: the states ``dt`` seconds later."""
         states = np.ascontiguousarray(states, dtype=float)
         out = np.empty_like(states)
-        propagate_states(states, np.asarray(motor_torque, dtype=float), float(dt), self.max_step, self.refresh,
+        propagate_states(states, np.ascontiguousarray(motor_torque, dtype=float), float(dt), self.max_step, self.refresh,
                          self.model.table, self.model.coupling, self.model.gravity_coefficients, out)
         return out
 

@@ -18,7 +18,8 @@ from simulation.model.effects import (Backlash, CapstanFriction, CapstanRunout, 
                                       GravityModelError, GravityStretch, Hysteresis, MotorFriction, TransmissionError,
                                       ViscousFriction)
 
-from simulation.discrepancy.generic import NominalModel
+from simulation.discrepancy.generic import (HYSTERESIS_WIDTH_FRACTIONS, NominalModel, coupled_hysteresis_basis,
+                                            play_widths)
 from simulation.discrepancy.replay import RavenModel
 from simulation.discrepancy.signals import MeasuredSignals
 
@@ -61,6 +62,11 @@ class Candidate:
     applies : whether the effect can be added to this model and data (and why not).
     partners : effects of the model that trade with this one, refitted together with it (the
         Coulomb force is the tension-independent part of what capstan friction adds).
+    basis : for an effect whose contribution to the joints is linear in its parameters, the map
+        from the whole record's signals to that contribution per unit of each parameter, (N, J, P):
+        the workflow then fits it by bounded linear least squares in closed form
+        (:func:`~simulation.discrepancy.fitting.fit_linear_candidate`) instead of by IPOPT on
+        finite differences. None for the others.
     """
 
     name: str
@@ -68,6 +74,7 @@ class Candidate:
     build: Callable
     applies: Callable
     partners: tuple[str, ...] = ()
+    basis: Callable | None = None
 
     @property
     def n_parameters(self) -> int:
@@ -243,8 +250,9 @@ def oracle_candidates(signals: MeasuredSignals) -> list[Candidate]:
     ]
 
 
-def generic_candidates(signals: MeasuredSignals) -> list[Candidate]:
-    """The library for generic data (joint-space forms of the same effects)."""
+def generic_candidates(signals: MeasuredSignals, play_fractions=HYSTERESIS_WIDTH_FRACTIONS) -> list[Candidate]:
+    """The library for generic data (joint-space forms of the same effects); ``play_fractions`` are
+    the half-widths of ``coupled_hysteresis``'s play operators as fractions of each joint's range."""
     j = signals.n_joints
     span = np.max(np.ptp(signals.reported, axis=0))
     joint = tuple(signals.units)
@@ -270,7 +278,28 @@ def generic_candidates(signals: MeasuredSignals) -> list[Candidate]:
                                                               tuple(f"{joint[r]} s/{joint[c]}" for r in range(j)
                                                                     for c in range(j) if r != c)),),
                   _generic("coupled_viscous_friction"), _any),
+        _coupled_hysteresis(signals, play_fractions),
     ]
+
+
+def _coupled_hysteresis(signals: MeasuredSignals, fractions) -> Candidate:
+    """Hysteresis of each joint driven by every joint's motion: a joint whose cables run over the
+    pulleys of other joints (the wrist pitch and the two jaw cables of a da Vinci instrument) drags
+    with their friction whichever way those joints last moved. A weighted sum of play operators of
+    each joint's reported motion (:data:`~simulation.discrepancy.generic.HYSTERESIS_WIDTH_FRACTIONS`
+    of its range), one weight per (moved joint, moving joint, width); linear in the weights, so fitted
+    in closed form."""
+    j = signals.n_joints
+    widths = play_widths(signals, fractions)
+    joint = tuple(signals.units)
+    units = tuple(f"{joint[r]}/{joint[c]}" for r in range(j) for c in range(j) for _ in range(widths.shape[1]))
+
+    def build(model, values):
+        return model.with_effect("coupled_hysteresis", {"weight": values["weight"], "widths": widths})
+
+    return Candidate("coupled_hysteresis",
+                     (ParameterBlock("weight", j * j * widths.shape[1], -10.0, 10.0, 0.1, 0.0, units),),
+                     build, _any, basis=lambda s: coupled_hysteresis_basis(s, widths))
 
 
 def library(signals: MeasuredSignals) -> list[Candidate]:
@@ -290,7 +319,8 @@ logged commands (:mod:`simulation.discrepancy.controller`), never by the transmi
 
 LIBRARY_NAMES = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "gravity_stretch", "coupling",
                  "drift", "homing_offset", "registration_offset", "transmission_error", "motor_friction",
-                 "capstan_friction", "gravity_model_error", "payload")
+                 "capstan_friction", "gravity_model_error", "payload", "coupled_viscous_friction",
+                 "coupled_hysteresis")
 """Effect names the workflow can name. The simulator has more (``capstan_runout``), which the
 library deliberately lacks: a residual they cause is reported as unexplained."""
 

@@ -16,7 +16,56 @@ from simulation.discrepancy.replay import ReplayState, bouc_wen_series, play_ser
 from simulation.discrepancy.signals import MeasuredSignals
 
 GENERIC_EFFECTS = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis", "coupling", "drift",
-                   "transmission_error", "coupled_viscous_friction")
+                   "transmission_error", "coupled_viscous_friction", "coupled_hysteresis")
+
+HYSTERESIS_WIDTH_FRACTIONS = tuple(2.0 ** -k for k in range(1, 9))
+"""Half-widths of the play operators of ``coupled_hysteresis``, as fractions of each joint's range of
+reported motion in the record: 1/2 down to 1/256, a geometric grid, so that a loop of any width up
+to the whole range is a weighted sum of them (the Prandtl-Ishlinskii construction of
+rate-independent hysteresis). Of six grids tried on the dVRK wrist, this one left the smallest gap on
+the workflow's validation part (the random motion; ``python studies/discrepancy_play_widths.py``
+lists each grid's validation and held-out gaps)."""
+
+
+def play_widths(signals: MeasuredSignals, fractions=HYSTERESIS_WIDTH_FRACTIONS) -> np.ndarray:
+    """(J, R) half-widths of the ``coupled_hysteresis`` play operators: ``fractions`` of each joint's
+    range of reported motion over the whole record (the robot's inputs only, never the measured joints)."""
+    fractions = np.asarray(fractions, dtype=float)
+    if fractions.ndim != 1 or fractions.size == 0 or not np.all((fractions > 0) & (fractions <= 1)):
+        raise ValueError(f"play fractions must be a non-empty list of numbers in (0, 1], got {fractions.tolist()}")
+    span = np.ptp(signals.reported, axis=0)
+    return np.maximum(span, 1e-12)[:, None] * fractions[None, :]
+
+
+def play_features(signals: MeasuredSignals, widths: np.ndarray) -> np.ndarray:
+    """(N, J, R) hysteresis of each joint's reported motion through a play (backlash) operator of
+    each half-width: ``reported - play(reported)``, within +- the half-width, whose sign says which way
+    the joint last moved. Cached on ``signals``."""
+    widths = np.asarray(widths, dtype=float)
+    cache = signals.__dict__.setdefault("_plays", {})
+    key = widths.tobytes()
+    if key not in cache:
+        reported = signals.reported
+        features = np.empty((len(signals),) + widths.shape)
+        for k in range(widths.shape[0]):
+            column = np.ascontiguousarray(reported[:, k])
+            for r in range(widths.shape[1]):
+                features[:, k, r] = column - play_series(column, float(widths[k, r]), signals.restarts)
+        features.setflags(write=False)
+        cache[key] = features
+    return cache[key]
+
+
+def coupled_hysteresis_basis(signals: MeasuredSignals, widths: np.ndarray) -> np.ndarray:
+    """(N, J, J * J * R) contribution of each ``coupled_hysteresis`` weight to each joint: weight
+    ``(j, k, r)`` (flattened in that order) moves joint ``j`` by play feature ``(k, r)``."""
+    features = play_features(signals, widths)
+    n, n_joints, n_widths = features.shape
+    flat = features.reshape(n, n_joints * n_widths)
+    basis = np.zeros((n, n_joints, n_joints * n_joints * n_widths))
+    for j in range(n_joints):
+        basis[:, j, j * flat.shape[1]:(j + 1) * flat.shape[1]] = flat
+    return basis
 
 
 def velocity_scale(signals: MeasuredSignals) -> np.ndarray:
@@ -57,6 +106,11 @@ def generic_contribution(name: str, values: dict, signals: MeasuredSignals) -> n
         matrix = np.zeros((n_joints, n_joints))
         matrix[~np.eye(n_joints, dtype=bool)] = values["lag_per_speed"]
         return -signals.drive_velocity @ matrix.T
+    if name == "coupled_hysteresis":
+        # each joint moves by a weighted sum of every joint's play features
+        features = play_features(signals, values["widths"])
+        weight = np.asarray(values["weight"], dtype=float).reshape(n_joints, n_joints, -1)
+        return np.einsum("nkr,jkr->nj", features, weight)
     if name == "transmission_error":
         # the joint moves (1 + ratio_error) times what the controller reports
         return values["ratio_error"] * reported

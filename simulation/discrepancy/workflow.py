@@ -35,7 +35,7 @@ from simulation.discrepancy.candidates import CONTROLLER_CANDIDATES, Candidate, 
 from simulation.discrepancy.generic import NominalModel
 from simulation.discrepancy.controller import ControllerCheck, ControllerLaw, ControllerSignals, check_controller
 from simulation.discrepancy.replay import RavenModel
-from simulation.discrepancy.fitting import ChannelWeights, Residual, fit_candidate, residual
+from simulation.discrepancy.fitting import ChannelWeights, Residual, fit_candidate, fit_linear_candidate, residual
 from simulation.discrepancy.signals import MeasuredSignals, joint_rmse, pooled_rmse, report_scale
 from simulation.discrepancy.signature import describe_residual, enough_samples, residual_structure
 
@@ -231,7 +231,12 @@ identification fitted, and only half-widths of 3 % to 5 % of its typical size lo
 def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights: ChannelWeights,
             robot, passes: int = 2) -> tuple[float, np.ndarray]:
     """Best weighted residual over a coarse scan of the candidate's parameters, one at a time
-    (``passes`` sweeps over them), and where; scanned again below the grid when nothing on it helps."""
+    (``passes`` sweeps over them), and where; scanned again below the grid when nothing on it helps.
+    A candidate linear in its parameters is fitted outright instead (its closed form costs less than
+    a scan)."""
+    if candidate.basis is not None:
+        theta, _, chi = fit_linear_candidate(candidate, model, signals, weights, robot, mask)
+        return float(chi), theta
     lower, upper, scale, initial = candidate.bounds()
 
     def chi(values):

@@ -396,11 +396,13 @@ def true_values(generator: RavenParameters, name: str, payload_kg: float = 0.0) 
 
 
 def run_on_generic(time, reported, truth, joint_names, units, held_out_start: int | None = None,
-                   settings: WorkflowSettings = WorkflowSettings()):
+                   settings: WorkflowSettings = WorkflowSettings(), play_fractions=None):
     """The workflow on data known only by reported and measured joints (nominal model: equal).
 
     With ``held_out_start``, the samples from that index on (e.g. a second recording appended in
     time) are the held-out part and the rest is split 2:1 into fit and validation.
+    ``play_fractions`` replaces the default half-widths of ``coupled_hysteresis``
+    (:data:`~simulation.discrepancy.generic.HYSTERESIS_WIDTH_FRACTIONS`).
     """
     signals = MeasuredSignals.generic(time, reported, truth, joint_names, units)
     if held_out_start is None:
@@ -411,12 +413,18 @@ def run_on_generic(time, reported, truth, joint_names, units, held_out_start: in
         cut = int(held_out_start * 2 / 3)
         split = Split(fit=index < cut, validation=first & (index >= cut), held_out=~first)
     model = NominalModel(offsets=np.zeros(signals.n_joints))
-    return run_workflow(model, signals, split, settings), signals, split
+    candidates = None
+    if play_fractions is not None:
+        from simulation.discrepancy.candidates import generic_candidates
+
+        candidates = generic_candidates(signals, play_fractions)
+    return run_workflow(model, signals, split, settings, candidates=candidates), signals, split
 
 
-def run_on_dvrk(root=None, joints=(3, 4, 5), settings: WorkflowSettings = WorkflowSettings()):
+def run_on_dvrk(root=None, joints=(3, 4, 5), settings: WorkflowSettings = WorkflowSettings(), play_fractions=None):
     """The workflow on the dVRK data of Hwang et al. 2020: fit and choose on the random motion,
-    report on the peg-transfer recording (appended after it in time)."""
+    report on the peg-transfer recording (appended after it in time); ``play_fractions`` as in
+    :func:`run_on_generic`."""
     from simulation.recordings.dvrk import JOINT_NAMES, PRISMATIC_JOINTS, load_dvrk
 
     joints = tuple(joints)
@@ -428,7 +436,8 @@ def run_on_dvrk(root=None, joints=(3, 4, 5), settings: WorkflowSettings = Workfl
     truth = np.concatenate([train.y, test.y])[:, joints]
     names = tuple(JOINT_NAMES[j] for j in joints)
     units = tuple("m" if PRISMATIC_JOINTS[j] else "rad" for j in joints)
-    return run_on_generic(time, reported, truth, names, units, held_out_start=len(train.t), settings=settings)
+    return run_on_generic(time, reported, truth, names, units, held_out_start=len(train.t), settings=settings,
+                          play_fractions=play_fractions)
 
 
 DVRK_CALIBRATORS = ("fixed offset", "linear", "window linear, 5 rows", "DNN 100-100")
