@@ -309,6 +309,25 @@ of lowest BIC, below the current model's, that cuts both joint gaps by at least 
 effect seen only in the motor torques, the torque gap on both parts)."""
 
 
+def _drag_section(result: DiscrepancyResult, signals, split) -> list[str]:
+    """With ``coupled_hysteresis`` named on generic data, how much each joint's motion drags each
+    joint (RMS over the fit and validation parts, report units): its weights summed per pair."""
+    from simulation.discrepancy.generic import NominalModel, coupled_hysteresis_shares
+
+    model = result.model_after
+    if not isinstance(model, NominalModel) or "coupled_hysteresis" not in model.effects:
+        return []
+    shares = coupled_hysteresis_shares(model.effects["coupled_hysteresis"], signals, split.fit | split.validation)
+    scale = report_scale(result.units)
+    units = _unit_names(result.units)
+    rows = [[f"{name} ({unit})", *(shares[j] * scale[j])] for j, (name, unit) in enumerate(zip(result.joint_names,
+                                                                                                units))]
+    return ["## Which joint drags which (coupled hysteresis)", "",
+            "RMS over the fit and validation parts of what each joint's motion (column) adds to each joint (row) "
+            "through the named coupled hysteresis; the diagonal is a joint's own hysteresis.", "",
+            markdown_table(["moved joint", *[f"by {name}" for name in result.joint_names]], rows, digits=3), ""]
+
+
 def write_report(result: DiscrepancyResult, signals, split, source: dict, out: Path, runtime_s: float,
                  starting_structure=STARTING_STRUCTURE, analysis: str = "blind") -> list[Path]:
     """Write ``report.json``, ``report.md`` and the plots of one workflow run in the folder ``out``."""
@@ -386,6 +405,7 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         markdown_table(["effect", "parameter", "joint", "fitted", "unit"], parameter_table, digits=4)
         if parameter_table else "(none named)",
         "",
+        *_drag_section(result, signals, split),
         "## Signature of the unexplained residual (fit and validation parts)",
         "",
         "\n".join(f"- {s}" for s in result.signature) if result.signature else

@@ -356,13 +356,22 @@ def _dragged_record():
 
 
 def test_a_hysteresis_driven_by_another_joint_is_named_coupled_hysteresis():
+    from simulation.discrepancy.generic import coupled_hysteresis_shares
+
     time, reported, truth = _dragged_record()
-    result, _, _ = run_on_generic(time, reported, truth, ("a", "b"), ("rad", "rad"))
+    result, signals, _ = run_on_generic(time, reported, truth, ("a", "b"), ("rad", "rad"))
     assert result.named_effects[:1] == ("coupled_hysteresis",), result.named_effects
     assert result.shrink >= 0.8, result.shrink
     # the weights of joint a on joint b's plays carry the drag; joint b's own error is noise
     weight = np.array(result.fitted_parameters["coupled_hysteresis"]["weight"]).reshape(2, 2, -1)
     assert np.abs(weight[0, 1]).sum() > 10 * np.abs(weight[1]).sum()
+    # and the report's table of who drags whom says so: about the drag's own RMS from b to a
+    first = np.r_[True, np.zeros(len(time) - 1, bool)]
+    b = np.ascontiguousarray(reported[:, 1])
+    drag = 0.5 * (b - play_series(b, 0.03, first))
+    shares = coupled_hysteresis_shares(result.model_after.effects["coupled_hysteresis"], signals)
+    assert shares[0, 1] == pytest.approx(np.sqrt(np.mean(drag ** 2)), rel=0.1)
+    assert shares[0, 0] < 0.2 * shares[0, 1] and np.all(shares[1] < 0.2 * shares[0, 1])
 
 
 def test_noise_alone_names_nothing_not_even_the_many_weights_of_coupled_hysteresis():

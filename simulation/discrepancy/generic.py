@@ -74,6 +74,19 @@ def velocity_scale(signals: MeasuredSignals) -> np.ndarray:
     return np.maximum(0.05 * speed, 1e-9)
 
 
+def coupled_hysteresis_shares(values: dict, signals: MeasuredSignals, mask: np.ndarray | None = None) -> np.ndarray:
+    """(J, J) RMS over the ``mask`` samples of what each joint's motion (column) adds to each joint
+    (row) through ``coupled_hysteresis`` with parameters ``values`` (joint units): which joint drags
+    which, and by how much."""
+    features = play_features(signals, values["widths"])
+    if mask is not None:
+        features = features[np.asarray(mask, dtype=bool)]
+    n_joints = features.shape[1]
+    weight = np.asarray(values["weight"], dtype=float).reshape(n_joints, n_joints, -1)
+    added = np.einsum("nkr,jkr->njk", features, weight)
+    return np.sqrt(np.mean(np.square(added), axis=0))
+
+
 def generic_contribution(name: str, values: dict, signals: MeasuredSignals) -> np.ndarray:
     """What effect ``name`` with parameters ``values`` adds to the measured joints (N, J)."""
     reported = signals.reported
