@@ -355,11 +355,12 @@ def _dragged_record():
     return time, reported, truth + rng.normal(0, 1e-4, truth.shape)
 
 
-def test_a_hysteresis_driven_by_another_joint_is_named_coupled_hysteresis():
+def test_a_hysteresis_driven_by_another_joint_is_named_coupled_hysteresis(tmp_path):
     from simulation.discrepancy.generic import coupled_hysteresis_shares
+    from studies.discrepancy import write_report
 
     time, reported, truth = _dragged_record()
-    result, signals, _ = run_on_generic(time, reported, truth, ("a", "b"), ("rad", "rad"))
+    result, signals, split = run_on_generic(time, reported, truth, ("a", "b"), ("rad", "rad"))
     assert result.named_effects[:1] == ("coupled_hysteresis",), result.named_effects
     assert result.shrink >= 0.8, result.shrink
     # the weights of joint a on joint b's plays carry the drag; joint b's own error is noise
@@ -372,6 +373,13 @@ def test_a_hysteresis_driven_by_another_joint_is_named_coupled_hysteresis():
     shares = coupled_hysteresis_shares(result.model_after.effects["coupled_hysteresis"], signals)
     assert shares[0, 1] == pytest.approx(np.sqrt(np.mean(drag ** 2)), rel=0.1)
     assert shares[0, 0] < 0.2 * shares[0, 1] and np.all(shares[1] < 0.2 * shares[0, 1])
+    # the report's table: joint a's row, in degrees, over the fit and validation parts
+    write_report(result, signals, split, {"description": "a dragged joint"}, tmp_path, 1.0, starting_structure=())
+    text = (tmp_path / "report.md").read_text()
+    part = coupled_hysteresis_shares(result.model_after.effects["coupled_hysteresis"], signals,
+                                     split.fit | split.validation)
+    assert "## Which joint drags which (coupled hysteresis)" in text
+    assert f"| a (deg) | {np.degrees(part[0, 0]):.3f} | {np.degrees(part[0, 1]):.3f} |" in text
 
 
 def test_noise_alone_names_nothing_not_even_the_many_weights_of_coupled_hysteresis():
