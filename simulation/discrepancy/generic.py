@@ -74,16 +74,22 @@ def velocity_scale(signals: MeasuredSignals) -> np.ndarray:
     return np.maximum(0.05 * speed, 1e-9)
 
 
-def coupled_hysteresis_shares(values: dict, signals: MeasuredSignals, mask: np.ndarray | None = None) -> np.ndarray:
-    """(J, J) RMS over the ``mask`` samples of what each joint's motion (column) adds to each joint
-    (row) through ``coupled_hysteresis`` with parameters ``values`` (joint units): which joint drags
-    which, and by how much."""
+def coupled_hysteresis_pairs(values: dict, signals: MeasuredSignals) -> np.ndarray:
+    """(N, J, J) what each joint's motion (last axis) adds to each joint (middle axis) through
+    ``coupled_hysteresis`` with parameters ``values`` (joint units); summed over the last axis, the
+    effect's contribution."""
     features = play_features(signals, values["widths"])
-    if mask is not None:
-        features = features[np.asarray(mask, dtype=bool)]
     n_joints = features.shape[1]
     weight = np.asarray(values["weight"], dtype=float).reshape(n_joints, n_joints, -1)
-    added = np.einsum("nkr,jkr->njk", features, weight)
+    return np.einsum("nkr,jkr->njk", features, weight)
+
+
+def coupled_hysteresis_shares(values: dict, signals: MeasuredSignals, mask: np.ndarray | None = None) -> np.ndarray:
+    """(J, J) RMS over the ``mask`` samples of :func:`coupled_hysteresis_pairs`: which joint drags
+    which, and by how much (joint units)."""
+    added = coupled_hysteresis_pairs(values, signals)
+    if mask is not None:
+        added = added[np.asarray(mask, dtype=bool)]
     return np.sqrt(np.mean(np.square(added), axis=0))
 
 
@@ -121,9 +127,7 @@ def generic_contribution(name: str, values: dict, signals: MeasuredSignals) -> n
         return -signals.drive_velocity @ matrix.T
     if name == "coupled_hysteresis":
         # each joint moves by a weighted sum of every joint's play features
-        features = play_features(signals, values["widths"])
-        weight = np.asarray(values["weight"], dtype=float).reshape(n_joints, n_joints, -1)
-        return np.einsum("nkr,jkr->nj", features, weight)
+        return coupled_hysteresis_pairs(values, signals).sum(axis=2)
     if name == "transmission_error":
         # the joint moves (1 + ratio_error) times what the controller reports
         return values["ratio_error"] * reported
