@@ -19,7 +19,10 @@ pytestmark = pytest.mark.xdist_group("compare_sota")
 """One worker runs this module, so its module fixtures (simulated sessions, fitted filters) are built once."""
 
 REDUCED = MethodSettings(dnn_seeds=1, dnn_epochs=60, lstm_epochs=2, forest_trees=5, two_phase_max_samples=800,
-                         gpr_subset=300, gpr_hyper_subset=100, lstm_max_samples=800, ukf_tuning="none")
+                         gpr_subset=300, gpr_hyper_subset=100, lstm_max_samples=800, ukf_tuning="none",
+                         ukf_scales="nominal")
+"""Training budgets of the checks of the comparison's pipeline: short, with the UKF's held-out
+choices of its smoothing scale and coasting noise (tested in the UKF's own modules) left out."""
 
 
 @pytest.fixture(scope="module")

@@ -23,6 +23,9 @@ from estimators import pooled_rmse, rmse_per_joint
 from simulation.recordings import load_dvrk, locate_dvrk_data
 from simulation.recordings.dvrk import JOINT_NAMES, PRISMATIC_JOINTS, WRIST_JOINTS
 
+pytestmark = pytest.mark.xdist_group("dvrk_calibration")
+"""One worker runs this module, so the calibrators are fitted once (a module fixture)."""
+
 RAW = list(range(6))
 REQUIRED_WRIST_REDUCTION = 0.25
 

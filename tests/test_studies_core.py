@@ -225,6 +225,18 @@ def test_method_settings_reject_nonsense():
         MethodSettings(dnn_seeds=0)
     with pytest.raises(ValueError, match="two_phase_max_samples"):
         MethodSettings(two_phase_max_samples=-3)
+    with pytest.raises(ValueError, match="ukf_scales must be one of"):
+        MethodSettings(ukf_scales="fixed")
+
+
+def test_nominal_ukf_scales_reach_the_filter_and_chosen_ones_leave_its_defaults():
+    from studies.common.methods import method_catalogue
+
+    for key in ("ukf", "ukf_disturbance", "ukf_hybrid"):
+        nominal = method_catalogue(MethodSettings(ukf_scales="nominal"))[key].make(0)
+        chosen = method_catalogue(MethodSettings())[key].make(0)
+        assert nominal.options["velocity_scale_factors"] == (1.0,) and nominal.options["coast_noise_scale"] == 1.0
+        assert "velocity_scale_factors" not in chosen.options and "coast_noise_scale" not in chosen.options
 
 
 # --- sweeps ------------------------------------------------------------------------------------

@@ -220,6 +220,7 @@ def _separated_recordings(samples: Samples, window: int) -> tuple[np.ndarray, np
 
 
 UKF_TUNINGS = ("likelihood", "joint_error", "none")
+UKF_SCALES = ("chosen", "nominal")
 
 
 @dataclass(frozen=True)
@@ -239,6 +240,9 @@ class MethodSettings:
     lstm_max_samples : training rows of the window LSTM (None: all).
     ukf_tuning : how the UKF tunes its process noise on the calibration run (``"likelihood"``,
         ``"joint_error"``, or ``"none"``: keep the noise derived from the identification).
+    ukf_scales : ``"chosen"``: the UKF chooses its friction smoothing scale and its coasting noise
+        on the calibration run (held-out filter runs, most of its fit's time); ``"nominal"``: it keeps
+        the nominal smoothing scale and no extra coasting noise, for checks of the pipeline.
     n_threads : torch/BLAS threads per fit (1 lets parallel sweeps use one core per task).
     """
 
@@ -252,6 +256,7 @@ class MethodSettings:
     gpr_hyper_subset: int = 500
     lstm_max_samples: int | None = None
     ukf_tuning: str = "likelihood"
+    ukf_scales: str = "chosen"
     n_threads: int = 1
 
     def __post_init__(self) -> None:
@@ -262,6 +267,8 @@ class MethodSettings:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if self.ukf_tuning not in UKF_TUNINGS:
             raise ValueError(f"ukf_tuning must be one of {UKF_TUNINGS}, got {self.ukf_tuning!r}")
+        if self.ukf_scales not in UKF_SCALES:
+            raise ValueError(f"ukf_scales must be one of {UKF_SCALES}, got {self.ukf_scales!r}")
         for name in ("two_phase_max_samples", "lstm_max_samples"):
             value = getattr(self, name)
             if value is not None and (int(value) != value or value < 1):
@@ -320,12 +327,18 @@ def _calibrator(calibrator, seed: int, *, seeded: bool = False, **options) -> Ca
     return CalibratorOnSamples(model, seed=seed, **options)
 
 
-def _ukf(tuning: str, seed: int, **options) -> UKFOnSamples:
-    return UKFOnSamples(tuning=tuning, **options)
+def _ukf_scale_options(scales: str) -> dict:
+    """The UKF's options for ``MethodSettings.ukf_scales``: none (its own choices) or the nominal
+    smoothing scale alone and a coasting-noise factor of one."""
+    return {} if scales == "chosen" else {"velocity_scale_factors": (1.0,), "coast_noise_scale": 1.0}
 
 
-def _ukf_hybrid(tuning: str, seed: int) -> UKFHybridOnSamples:
-    return UKFHybridOnSamples(tuning=tuning)
+def _ukf(tuning: str, scales: str, seed: int, **options) -> UKFOnSamples:
+    return UKFOnSamples(tuning=tuning, **_ukf_scale_options(scales), **options)
+
+
+def _ukf_hybrid(tuning: str, scales: str, seed: int) -> UKFHybridOnSamples:
+    return UKFHybridOnSamples(tuning=tuning, **_ukf_scale_options(scales))
 
 
 DISTURBANCE_DENSITY = 1.0
@@ -385,12 +398,12 @@ def method_catalogue(settings: MethodSettings | None = None) -> dict[str, Method
         regression("linear"),
         regression("polynomial"),
         dnn(s),
-        Method("ukf", "UKF", "UKF", "Haghighipanah et al. (IROS 2015)", partial(_ukf, s.ukf_tuning),
+        Method("ukf", "UKF", "UKF", "Haghighipanah et al. (IROS 2015)", partial(_ukf, s.ukf_tuning, s.ukf_scales),
                needs_robot_state=True, cost=1.0),
         Method("ukf_disturbance", "UKF + disturbance", "UKF + dist", "Haghighipanah et al. with a disturbance state",
-               partial(_ukf, s.ukf_tuning, disturbance_density=DISTURBANCE_DENSITY), needs_robot_state=True, cost=1.0),
+               partial(_ukf, s.ukf_tuning, s.ukf_scales, disturbance_density=DISTURBANCE_DENSITY), needs_robot_state=True, cost=1.0),
         Method("ukf_hybrid", "UKF + learned residual", "UKF + Lin Reg", "UKF then linear regression of its residual",
-               partial(_ukf_hybrid, s.ukf_tuning), needs_robot_state=True, cost=1.2),
+               partial(_ukf_hybrid, s.ukf_tuning, s.ukf_scales), needs_robot_state=True, cost=1.2),
         Method("gpr", "Gaussian process", "GPR", "Mahler et al. (CASE 2014)",
                partial(_calibrator, gpr, seeded=True), cost=0.3),
         Method("two_phase", "Two-phase DNN + forest", "DNN + RF", "Seita et al. (ICRA 2018)",
