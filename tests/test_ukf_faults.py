@@ -194,7 +194,8 @@ def test_motor_shaft_friction_outside_its_model_never_gives_nonsense(coulomb):
     robot = powered_on(params, seed=7)
     calibration = record_random_test(robot, 60.0, seed=31)
     test = recording_to_dataset(record_random_test(robot, 20.0, seed=32), RavenII(arm="left", check_limits=False))
-    fitted = UKFJointEstimator(tuning="none", tuning_seconds=40.0).fit(calibration)
+    # the nominal friction smoothing scale: its held-out choice is tested in test_nominal.py
+    fitted = UKFJointEstimator(tuning="none", tuning_seconds=40.0, velocity_scale_factors=(1.0,)).fit(calibration)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         estimates = fitted.predict(test)
