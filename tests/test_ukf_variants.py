@@ -49,6 +49,7 @@ def test_disturbance_state_converges_to_the_payloads_gravity_from_the_kinematics
                - robot.gravity_torques(q6, check_limits=False)).mean(axis=0)
     # the model's links feel T - g(q) + d: the disturbance carries the payload's holding load, negated
     disturbance = estimates.states[settled, 12:].mean(axis=0)
+    print(f"insertion axis: disturbance {-disturbance[2]:.2f} N, the payload's gravity {payload[2]:.2f} N")
     np.testing.assert_allclose(-disturbance, payload, rtol=0.35)
     np.testing.assert_allclose(-disturbance[2], payload[2], rtol=0.1)    # the insertion axis takes 4.5 N
 
