@@ -94,6 +94,52 @@ def test_fitted_parameter_set_is_the_model_with_every_other_effect_off(simulated
     VirtualRaven(fitted, seed=0)  # the fitted model builds a simulator
 
 
+@pytest.fixture(scope="module")
+def simulated_motor_friction():
+    """The brisk motion of ``simulated`` (a minute unloaded, a minute with 0.5 kg) on a robot whose
+    motors and gearboxes also have their datasheet friction (stick-slip on the motor shaft)."""
+    params = RavenParameters().only(*MODEL, "motor_friction")
+    robot = VirtualRaven(params, seed=2)
+    robot.home()
+    parts = []
+    for seed, payload in ((5, 0.0), (6, 0.5)):
+        robot.set_payload(payload)
+        motion = random_sinusoidal(60.0, seed, ranges=BRISK)
+        robot.move_to(motion.q[0])
+        parts.append(robot.run(motion))
+    return params, Recording.concatenate(parts)
+
+
+@pytest.mark.filterwarnings("ignore::simulation.identification.PoorlyIdentifiedWarning")
+def test_motor_friction_is_identified_from_the_torques_and_found_absent_where_it_is(simulated,
+                                                                                   simulated_motor_friction):
+    params, recording = simulated_motor_friction
+    result = identify(recording, effects=MODEL + ("motor_friction",), base=recovery_start(params))
+    fitted, true = result.parameters.effect("motor_friction"), params.effect("motor_friction")
+    print(f"\nmotor friction fitted: shaft {fitted.coulomb[:3]} N m, gearbox loss {fitted.gearbox_loss[:3]}; "
+          f"simulated: {true.coulomb[:3]}, {true.gearbox_loss[:3]}")
+    # the search starts from zero, never from the class defaults (the simulator's values)
+    assert fitted.enabled
+    np.testing.assert_allclose(fitted.coulomb[:3], true.coulomb[:3], rtol=0.05)
+    np.testing.assert_allclose(fitted.gearbox_loss[:3], true.gearbox_loss[:3], rtol=0.1)
+    np.testing.assert_array_equal(fitted.coulomb[3:], 0.0)
+    np.testing.assert_array_equal(fitted.gearbox_loss[3:], 0.0)
+    # without it the joint-side terms take the motors' friction, and the torques fit worse
+    without = identify(recording, effects=MODEL, base=recovery_start(params))
+    assert np.all(result.report.torque_rmse < 0.1 * without.report.torque_rmse)
+    # data without motor friction: the fit finds (nearly) none
+    _, clean = simulated
+    none = identify(clean, effects=MODEL + ("motor_friction",), base=recovery_start(params)).parameters
+    assert np.all(none.effect("motor_friction").coulomb[:3] < 0.1 * true.coulomb[:3])
+    assert np.all(none.effect("motor_friction").gearbox_loss[:3] < 0.1 * true.gearbox_loss[:3])
+
+
+def test_an_effect_the_identification_cannot_fit_is_named_in_the_error(simulated):
+    _, recording = simulated
+    with pytest.raises(ValueError, match=r"cannot identify effects \['backlash'\]; identifiable effects: .*motor_friction"):
+        identify(recording, effects=MODEL + ("backlash",))
+
+
 def model_log(params: RavenParameters, duration: float, rate: float, payload_kg: float) -> MotorLog:
     """A log computed from the identification's own equations along a smooth joint trajectory.
 

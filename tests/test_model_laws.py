@@ -117,6 +117,21 @@ def test_friction_slope_is_the_derivative_of_the_friction_and_shares_its_force()
     assert_close(slope, numeric, 1e-6, 1e-8 * coulomb / scale)
 
 
+def test_motor_friction_agrees_in_numpy_and_casadi_and_grows_with_the_transmitted_load():
+    velocity, coulomb, scale, _ = friction_states(draws(12))
+    rng = draws(13)
+    loss = rng.uniform(0.0, 0.5, N_DRAWS)
+    transmitted = rng.uniform(-5.0, 5.0, N_DRAWS)
+    arguments = [velocity, coulomb, loss, transmitted, scale]
+    expected = laws.motor_friction(*arguments)
+    np.testing.assert_allclose(casadi_values(laws_casadi.motor_friction, arguments), expected, rtol=RTOL,
+                               atol=1e-15 * np.max(np.abs(expected)))
+    # opposes nothing at rest, the dry bound plus the loss per unit of load once the drive slides
+    assert laws.motor_friction(0.0, 1.0, 0.2, 3.0, 1e-3) == 0.0
+    assert laws.motor_friction(1.0, 1.0, 0.2, -3.0, 1e-3) == pytest.approx(1.6, rel=1e-12)
+    assert laws.motor_friction(-1.0, 1.0, 0.2, 3.0, 1e-3) == pytest.approx(-1.6, rel=1e-12)
+
+
 def test_link_tension_and_gravity_load_agree_in_numba_and_casadi():
     rng = draws(6)
     velocity, coulomb, scale, viscous = friction_states(rng)

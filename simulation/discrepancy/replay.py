@@ -32,6 +32,8 @@ from simulation.model.laws import (
     cable_tension_curve,
     coupling_matrix,
     gravity_load,
+    motor_friction,
+    MOTOR_STICTION_SPEED,
     play,
     stiffness_tension,
     stretch_from_tension,
@@ -39,12 +41,6 @@ from simulation.model.laws import (
 from simulation.model.parameters import RavenParameters
 
 from simulation.discrepancy.signals import MeasuredSignals
-
-
-MOTOR_STICTION_SPEED = np.array([1e-3, 1e-3, 1e-4])
-"""Drive speed (rad/s, rad/s, m/s in joint units) below which the replay's motor friction fades
-linearly to zero (``tanh(v / speed)``): a round tenth of a degree per second and a tenth of a
-millimetre per second, where the motor's stick-slip cannot be followed in a 30 Hz log."""
 
 
 @njit(cache=True)
@@ -438,7 +434,7 @@ class RavenModel:
         if p.is_enabled("motor_friction"):
             # the amplifier's torque also overcomes the motor's and gearbox's friction (joint units)
             friction = p.effect("motor_friction")
-            bound = friction.coulomb[:3] * ratio + friction.gearbox_loss[:3] * np.abs(tension @ a)
-            motor_side = motor_side + bound * np.tanh(signals.drive_velocity / MOTOR_STICTION_SPEED)
+            motor_side = motor_side + motor_friction(signals.drive_velocity, friction.coulomb[:3] * ratio,
+                                                     friction.gearbox_loss[:3], tension @ a, MOTOR_STICTION_SPEED)
         torque = motor_side * gear / ratio
         return ReplayState(joints=joints, torque=torque, tension=tension, stretch=stretch, gravity=gravity)

@@ -76,7 +76,7 @@ class WorkflowSettings:
     backfit_rounds : with a base identifier, at most how many times a candidate outside the
         identifier's reach is fitted and the base re-identified on the joints and torques with the
         candidate's share removed (the base otherwise keeps the part of the missing effect it
-        absorbed: motor friction in the torques bends every identified cable parameter).
+        absorbed: a load-dependent friction in the torques bends every identified cable parameter).
     backfit_tolerance : the rounds stop when one lowers the fit part's weighted residual by less
         than this fraction (or raises it: that round is discarded). 0: they go on while a round
         lowers it at all. The rounds converge slowly where the candidate moves the base a lot: with

@@ -13,7 +13,7 @@ joint prediction is explicit in the tension.
 """
 
 from simulation.identification.fit import identify
-from simulation.identification.layout import DEFAULT_FIXED, FITTABLE_EFFECTS, SLOT_NAMES
+from simulation.identification.layout import DEFAULT_FIXED, FITTABLE_EFFECTS, IDENTIFIABLE_EFFECTS, SLOT_NAMES
 from simulation.identification.motor_log import MotorLog, as_motor_log
 from simulation.identification.nominal import nominal_parameters
 from simulation.identification.result import FitReport, IdentificationResult, NotIdentifiableError, ParameterEstimate, PoorlyIdentifiedWarning
@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_FIXED",
     "nominal_parameters",
     "FITTABLE_EFFECTS",
+    "IDENTIFIABLE_EFFECTS",
     "FitReport",
     "IdentificationResult",
     "IdentificationSamples",

@@ -47,8 +47,10 @@ from simulation.identification.layout import (
     DAMPING,
     DEFAULT_FIXED,
     FITTABLE_EFFECTS,
+    GEARBOX_LOSS,
     HARDENING,
     LOAD_SCALE,
+    MOTOR_COULOMB,
     OFFSET,
     OFFSETS,
     QUANTITIES,
@@ -397,6 +399,9 @@ def _fitted_parameters(base: RavenParameters, effects, slots: np.ndarray) -> Rav
         "coupling": dict(delta=slots[COUPLING_DELTA]),
         "coulomb_friction": dict(force=np.maximum(slots[COULOMB], 0.0)),
         "viscous_friction": dict(coefficient=np.maximum(slots[VISCOUS], 0.0)),
+        # the tool DOFs' friction is not in a positioning joints' log: zero, not the class defaults
+        "motor_friction": dict(coulomb=np.r_[np.maximum(slots[MOTOR_COULOMB], 0.0), np.zeros(4)],
+                               gearbox_loss=np.r_[np.maximum(slots[GEARBOX_LOSS], 0.0), np.zeros(4)]),
     }
     for name in effects:
         fitted = fitted.with_effect(fitted.effect(name).replace(**updates[name]))
@@ -413,8 +418,9 @@ def identify(log, *, effects=FITTABLE_EFFECTS, base: RavenParameters | None = No
     ----------
     log : MotorLog, CalibrationDataset or Recording with motor positions, motor torques and
         ground-truth joints (e.g. the calibration run), or prepared :class:`IdentificationSamples`.
-    effects : the effects in the model (subset of :data:`FITTABLE_EFFECTS`); their parameters are
-        estimated, every other effect is off in the returned parameter set.
+    effects : the effects in the model (subset of :data:`~.layout.IDENTIFIABLE_EFFECTS`; by default
+        :data:`FITTABLE_EFFECTS`, the UKF's model class); their parameters are estimated, every
+        other effect is off in the returned parameter set.
     base : parameter set giving the constants, gravity vector, friction velocity scale, initial
         guesses and fixed values (default: :func:`~.nominal.nominal_parameters`, the controller's
         constants and round effect values; never the simulator's own).

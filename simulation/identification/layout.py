@@ -1,9 +1,10 @@
 """Which cable-model parameters a fit estimates, and how the solver sees them.
 
-The identified model has eight per-joint quantities (24 slots): cable stiffness, hardening
+The identified model has ten per-joint quantities (30 slots): cable stiffness, hardening
 stretch and damping, Coulomb and viscous friction, gravity load scale, the three coupling
-deviations, and the session's joint offsets. A slot is *free* (estimated), *fixed* (held at the
-base parameter set's value) or *off* (its effect is not part of the model: zero, or a rigid cable).
+deviations, the session's joint offsets, and the motors' dry friction and gearbox loss. A slot
+is *free* (estimated), *fixed* (held at the base parameter set's value) or *off* (its effect is
+not part of the model: zero, or a rigid cable).
 Free parameters reach the solver as dimensionless unknowns ``xi`` of order one: positive scale
 parameters as ``reference * exp(xi)`` (so they stay positive and relative errors are symmetric),
 the others as ``reference + scale * xi``.
@@ -20,7 +21,11 @@ from simulation.model.constants import POSITIONING_NAMES
 from simulation.model.parameters import RavenParameters
 
 FITTABLE_EFFECTS = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction")
-"""Effects whose parameters the identification can estimate (the UKF's model class)."""
+"""The effects the identification estimates by default (the UKF's model class)."""
+IDENTIFIABLE_EFFECTS = FITTABLE_EFFECTS + ("motor_friction",)
+"""Every effect whose parameters the identification can estimate: :data:`FITTABLE_EFFECTS` and the
+motors' and gearboxes' friction, which only the motor torques see (the smooth law of
+:func:`simulation.model.laws.motor_friction`, on the positioning joints)."""
 JOINT_NAMES = POSITIONING_NAMES
 COUPLING_NAMES = ("c01", "c02", "c12")
 OFFSET = "offset"
@@ -35,6 +40,10 @@ class Quantity:
     transform: str            # "log", "nonnegative" or "linear"
     scale: tuple[float, float, float]
     entries: tuple[str, str, str] = JOINT_NAMES
+    start: tuple[float, float, float] | None = None
+    """Where the search starts when the base parameter set does not hold the effect (a switched-off
+    effect keeps its class defaults, which for the simulator's effects are the simulator's values);
+    None: the base set's values whatever they are."""
 
     @property
     def prefix(self) -> str:
@@ -50,10 +59,13 @@ QUANTITIES = (
     Quantity("gravity_stretch", "load_scale", "linear", (0.1, 0.1, 0.1)),
     Quantity("coupling", "delta", "linear", (1e-3, 1e-3, 1e-3), COUPLING_NAMES),
     Quantity(OFFSET, "", "linear", (1e-3, 1e-3, 1e-4)),
+    # a round 1 mN m at the motor shaft and a loss of 0.1 per unit of transmitted torque, from zero
+    Quantity("motor_friction", "coulomb", "nonnegative", (1e-3, 1e-3, 1e-3), start=(0.0, 0.0, 0.0)),
+    Quantity("motor_friction", "gearbox_loss", "nonnegative", (0.1, 0.1, 0.1), start=(0.0, 0.0, 0.0)),
 )
 """The model's quantities in slot order (slot = 3 * quantity index + entry)."""
 N_SLOTS = 3 * len(QUANTITIES)
-STIFFNESS, HARDENING, DAMPING, COULOMB, VISCOUS, LOAD_SCALE, COUPLING_DELTA, OFFSETS = (
+STIFFNESS, HARDENING, DAMPING, COULOMB, VISCOUS, LOAD_SCALE, COUPLING_DELTA, OFFSETS, MOTOR_COULOMB, GEARBOX_LOSS = (
     slice(3 * i, 3 * i + 3) for i in range(len(QUANTITIES)))
 
 DEFAULT_FIXED = ("cable_stretch.damping",)
@@ -102,7 +114,10 @@ class ParameterSpec:
 def _slot_reference(params: RavenParameters, quantity: Quantity, offsets: np.ndarray) -> np.ndarray:
     if quantity.effect == OFFSET:
         return np.asarray(offsets, dtype=float)
-    return np.asarray(getattr(params.effect(quantity.effect), quantity.field), dtype=float)
+    if quantity.start is not None and not params.is_enabled(quantity.effect):
+        return np.asarray(quantity.start, dtype=float)
+    # effects of every DOF (motor friction) hold the positioning joints first
+    return np.asarray(getattr(params.effect(quantity.effect), quantity.field), dtype=float)[:3]
 
 
 def _expand_fixed(fixed) -> set[str]:
@@ -182,16 +197,16 @@ def build_layout(effects, fixed, params: RavenParameters, offsets: np.ndarray) -
 
     Parameters
     ----------
-    effects : names of the effects in the model, a subset of :data:`FITTABLE_EFFECTS`.
+    effects : names of the effects in the model, a subset of :data:`IDENTIFIABLE_EFFECTS`.
     fixed : parameter names (``"coupling.delta[c01]"``) or whole fields (``"cable_stretch.damping"``)
         held at their value in ``params``.
     params : base parameter set: initial guesses and fixed values.
     offsets : (3,) initial joint offsets (rad, rad, m).
     """
     effects = tuple(effects)
-    unknown = [name for name in effects if name not in FITTABLE_EFFECTS]
+    unknown = [name for name in effects if name not in IDENTIFIABLE_EFFECTS]
     if unknown:
-        raise ValueError(f"cannot identify effects {unknown}; identifiable effects: {', '.join(FITTABLE_EFFECTS)}")
+        raise ValueError(f"cannot identify effects {unknown}; identifiable effects: {', '.join(IDENTIFIABLE_EFFECTS)}")
     if len(set(effects)) != len(effects):
         raise ValueError(f"effects repeat a name: {effects}")
     held = _expand_fixed(fixed)

@@ -12,7 +12,9 @@ and two measurements check it:
   ``s = x0 asinh((T - damping s') / (k x0))`` (:func:`simulation.model.laws.stretch_from_tension`),
   so the joints sit at ``p - s``; residual ``q - (p - s)`` (rad, rad, m);
 * the motor torques: the motors feel the cables through ``A^T``,
-  ``tau_u = J_u u'' + b_u u' + A^T T``; residual in N m, N m, N.
+  ``tau_u = J_u u'' + b_u u' + A^T T`` (plus, with ``motor_friction`` in the model, the motors'
+  and gearboxes' friction ``(c_m r + l |A^T T|) tanh(u' / v_m)``,
+  :func:`simulation.model.laws.motor_friction`); residual in N m, N m, N.
 
 The joint error fixes the cable law and the coupling, the torque error fixes the loads in absolute
 units (the gravity scale and the friction); together they separate the stiffness from the load.
@@ -26,13 +28,16 @@ import casadi as ca
 import numpy as np
 
 from simulation.model import laws_casadi as law
+from simulation.model.laws import MOTOR_STICTION_SPEED
 from simulation.model.constants import RavenConstants
 from simulation.identification.layout import (
     COULOMB,
     COUPLING_DELTA,
     DAMPING,
+    GEARBOX_LOSS,
     HARDENING,
     LOAD_SCALE,
+    MOTOR_COULOMB,
     OFFSETS,
     STIFFNESS,
     VISCOUS,
@@ -73,6 +78,11 @@ def residual_function(layout: ParameterLayout, constants: RavenConstants, veloci
         predicted = cable_end - law.stretch_from_tension(elastic, k, x0)
     motor_inertia = ca.DM(constants.motor_inertia[:3] * constants.transmission_ratio[:3] ** 2)
     motor_damping = ca.DM(constants.motor_damping[:3] * constants.transmission_ratio[:3] ** 2)
-    torque = motor_inertia * udd + motor_damping * ud + law.motor_load(a, tension)
+    transmitted = law.motor_load(a, tension)
+    torque = motor_inertia * udd + motor_damping * ud + transmitted
+    if "motor_friction" in layout.effects:
+        ratio = ca.DM(constants.transmission_ratio[:3])
+        torque = torque + law.motor_friction(ud, slots[MOTOR_COULOMB] * ratio, slots[GEARBOX_LOSS], transmitted,
+                                             ca.DM(MOTOR_STICTION_SPEED))
     residual = ca.vertcat(d[D_WQ] * (q - predicted), d[D_WT] * (d[D_TAU] - torque)) / sigma
     return ca.Function("cable_residual", [xi, d, sigma, references], [residual])

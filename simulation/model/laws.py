@@ -46,6 +46,7 @@ __all__ = [
     "friction_with_slope",
     "gravity_load",
     "link_tension",
+    "motor_friction",
     "play",
     "stiffness_tension",
     "stretch_from_tension",
@@ -200,6 +201,25 @@ def fatigue_rate(speed: float, reference_speed: float, payload_gain: float, payl
 
 
 # ---- numpy forms for whole time series -------------------------------------------------------
+
+MOTOR_STICTION_SPEED = np.array([1e-3, 1e-3, 1e-4])
+"""Drive speed (rad/s, rad/s, m/s in joint units) below which the motor friction of a log's model
+(:func:`motor_friction`) fades linearly to zero (``tanh(v / speed)``): a round tenth of a degree per
+second and a tenth of a millimetre per second, where the motor's stick-slip cannot be followed in
+a 30 Hz log."""
+
+
+def motor_friction(drive_velocity, coulomb, gearbox_loss, transmitted, stiction_speed=MOTOR_STICTION_SPEED):
+    """Torque the motors spend on their own and their gearboxes' friction, in joint units (N m, N m, N).
+
+    ``(coulomb + gearbox_loss |transmitted|) tanh(u' / v_m)``: ``coulomb`` is the motor-shaft
+    friction times the transmission ratio, ``gearbox_loss`` the loss per unit of transmitted
+    torque, ``transmitted`` the cables' load ``A^T T`` on the motors and ``u'`` the drive velocity.
+    The smooth form of :class:`~simulation.model.effects.MotorFriction`'s set-valued law, for
+    replaying and identifying logs, whose 30 Hz rate cannot follow the motor's stick-slip.
+    """
+    return (coulomb + gearbox_loss * np.abs(transmitted)) * np.tanh(drive_velocity / stiction_speed)
+
 
 def cable_stretch_curve(tension, stiffness, hardening) -> np.ndarray:
     """Vectorized :func:`stretch_from_tension` for numpy arrays (same units)."""

@@ -19,6 +19,7 @@ __all__ = [
     "friction_force",
     "gravity_load",
     "link_tension",
+    "motor_friction",
     "motor_load",
     "stiffness_tension",
     "stretch_from_tension",
@@ -84,3 +85,12 @@ def motor_load(coupling, tension):
     """Load ``A^T T`` of the cable tensions on the motor coordinates
     (:func:`simulation.model.laws.coupled_transpose`)."""
     return coupling.T @ tension
+
+
+def motor_friction(drive_velocity, coulomb, gearbox_loss, transmitted, stiction_speed):
+    """Torque the motors spend on their own and their gearboxes' friction, in joint units:
+    ``(coulomb + gearbox_loss |transmitted|) tanh(u' / v_m)`` (the replay's law,
+    :meth:`simulation.discrepancy.replay.RavenModel.replay`), with ``coulomb`` the motor-shaft
+    friction already multiplied by the transmission ratio and ``transmitted`` the cables' load
+    ``A^T T`` on the motors."""
+    return (coulomb + gearbox_loss * ca.fabs(transmitted)) * ca.tanh(drive_velocity / stiction_speed)

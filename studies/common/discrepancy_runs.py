@@ -213,13 +213,14 @@ def _with_corrections(dataset, torques, payload_kg: float = 0.0):
 
 def raven_base_identifier(dataset, fit_mask: np.ndarray, structure=STARTING_STRUCTURE) -> BaseIdentifier:
     """Step 0 and its re-runs: the identification on the fit part of ``dataset``."""
-    from simulation.identification import FITTABLE_EFFECTS
+    from simulation.identification import IDENTIFIABLE_EFFECTS
 
     def identify_structure(effects, correction, payload_kg=0.0):
         joints, torques = (None, None) if correction is None else correction
         return identified_model(_with_corrections(dataset, torques, payload_kg), fit_mask, effects, joints)
 
-    return BaseIdentifier(identify=identify_structure, fittable=tuple(FITTABLE_EFFECTS), structure=tuple(structure))
+    return BaseIdentifier(identify=identify_structure, fittable=tuple(IDENTIFIABLE_EFFECTS),
+                          structure=tuple(structure))
 
 
 def raven_library(signals: MeasuredSignals, names=LIBRARY):
