@@ -13,7 +13,7 @@ from kinematics import RavenII
 from kinematics.gravity_closed_form import gravity_torques_fast
 from simulation.model.laws import stiffness_tension
 from simulation.recordings.dataset import synchronize
-from simulation.identification import MotorLog
+from simulation.identification import FITTABLE_EFFECTS, MotorLog
 from simulation.recordings.bags import read_bag, write_bag
 from simulation.model.parameters import RavenParameters
 from simulation.engine.scenarios import powered_on, record_random_test
@@ -230,6 +230,9 @@ def test_bad_use_raises_clear_errors(session):
         UKFJointEstimator(tuning="none").fit(np.zeros((10, 3)))
     with pytest.raises(ValueError, match="cable_stretch off"):
         CableModel.from_parameters(RavenParameters().without("cable_stretch"), np.zeros(3))
+    # the identification fits motor friction, but the filter's process model has none to use
+    with pytest.raises(ValueError, match="process model has no motor_friction"):
+        UKFJointEstimator(effects=FITTABLE_EFFECTS + ("motor_friction",), tuning="none").fit(calibration)
     with pytest.raises(ValueError, match="positive"):
         ProcessNoise(motor=[1.0, 0.0, 1.0], joint=[1.0, 1.0, 1.0])
     with warnings.catch_warnings():

@@ -240,6 +240,7 @@ class UKFJointEstimator(BaseEstimator):
         """
         if self.tuning not in TUNING_CRITERIA:
             raise ValueError(f"tuning must be one of {TUNING_CRITERIA}, got {self.tuning!r}")
+        _check_model_class(self.effects)
         if isinstance(log, CalibrationDataset) and log.n_invalid:
             log = log.select(log.valid_mask())      # flagged rows hold values no robot produces
         log = as_motor_log(log)
@@ -310,6 +311,7 @@ class UKFJointEstimator(BaseEstimator):
         """Use an existing identification; tune the noise on ``log`` unless ``process_noise`` is given."""
         if not isinstance(result, IdentificationResult):
             raise TypeError(f"expected an IdentificationResult, got {type(result).__name__}")
+        _check_model_class(result.effects)
         if self.tuning not in TUNING_CRITERIA:
             raise ValueError(f"tuning must be one of {TUNING_CRITERIA}, got {self.tuning!r}")
         needs_log = self.process_noise is None and self.tuning != "none"
@@ -477,3 +479,11 @@ def _filter_input(source) -> tuple[MotorLog, np.ndarray]:
     torques[np.isinf(torques)] = np.nan
     log = MotorLog(time=source.time, motor_positions=positions, motor_torques=torques, arm=source.arm)
     return log, source.valid_mask()
+
+
+def _check_model_class(effects) -> None:
+    """Refuse effects the filter's process model does not simulate (it would ignore them)."""
+    outside = [name for name in effects if name not in FITTABLE_EFFECTS]
+    if outside:
+        raise ValueError(f"the UKF's process model has no {', '.join(outside)}; its model class is "
+                         f"{', '.join(FITTABLE_EFFECTS)}")
