@@ -5,7 +5,10 @@ Coulomb and viscous friction, gravity load scale, coupling) and the session's jo
 of motor positions, motor torques and ground-truth joints, such as the calibration run. It returns
 an :class:`IdentificationResult`: a fitted :class:`~simulation.model.parameters.RavenParameters` (so
 ``VirtualRaven(result.parameters)`` is the fitted model, and the UKF takes its cable model from
-it), the offsets, estimates with standard errors and confidence intervals, and a fit report.
+it), the offsets, estimates with standard errors and confidence intervals, and a fit report. Asked
+to (``effects=FITTABLE_EFFECTS + ("motor_friction",)``, :data:`IDENTIFIABLE_EFFECTS`), it also fits
+the motors' and gearboxes' friction, which only the motor torques see; the UKF's model class
+(:data:`FITTABLE_EFFECTS`, the default) has none.
 
 The stiffness law is the simulator's ``T = k x0 sinh(s / x0)`` (see
 :class:`~simulation.model.effects.CableStretch`): a hardening spring whose inverse is closed-form, so the
