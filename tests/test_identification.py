@@ -41,19 +41,24 @@ def true_value(params: RavenParameters, name: str) -> float:
     return float(getattr(params.effect(effect), field)[ENTRY[entry]])
 
 
-@pytest.fixture(scope="module")
-def simulated():
-    """One minute unloaded and one minute with 0.5 kg of brisk random motion, model effects only."""
-    params = RavenParameters().only(*MODEL)
-    robot = VirtualRaven(params, seed=1)
+def brisk_session(params: RavenParameters, robot_seed: int, motion_seeds: tuple[int, int]) -> Recording:
+    """One minute unloaded and one minute with 0.5 kg of brisk random motion on a robot of ``params``."""
+    robot = VirtualRaven(params, seed=robot_seed)
     robot.home()
     parts = []
-    for seed, payload in ((3, 0.0), (4, 0.5)):
+    for seed, payload in zip(motion_seeds, (0.0, 0.5)):
         robot.set_payload(payload)
         motion = random_sinusoidal(60.0, seed, ranges=BRISK)
         robot.move_to(motion.q[0])
         parts.append(robot.run(motion))
-    return params, Recording.concatenate(parts)
+    return Recording.concatenate(parts)
+
+
+@pytest.fixture(scope="module")
+def simulated():
+    """The brisk session with the model's effects only."""
+    params = RavenParameters().only(*MODEL)
+    return params, brisk_session(params, 1, (3, 4))
 
 
 def recovery_start(params: RavenParameters) -> RavenParameters:
@@ -99,15 +104,7 @@ def simulated_motor_friction():
     """The brisk motion of ``simulated`` (a minute unloaded, a minute with 0.5 kg) on a robot whose
     motors and gearboxes also have their datasheet friction (stick-slip on the motor shaft)."""
     params = RavenParameters().only(*MODEL, "motor_friction")
-    robot = VirtualRaven(params, seed=2)
-    robot.home()
-    parts = []
-    for seed, payload in ((5, 0.0), (6, 0.5)):
-        robot.set_payload(payload)
-        motion = random_sinusoidal(60.0, seed, ranges=BRISK)
-        robot.move_to(motion.q[0])
-        parts.append(robot.run(motion))
-    return params, Recording.concatenate(parts)
+    return params, brisk_session(params, 2, (5, 6))
 
 
 @pytest.mark.filterwarnings("ignore::simulation.identification.PoorlyIdentifiedWarning")
