@@ -590,10 +590,20 @@ def _named_first(hidden: str, result) -> bool:
     return first == hidden or hidden in result["equivalent"].get(first, [])
 
 
-def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, size_factor: float = 1.0) -> dict:
+def sweep_line(run: dict, done: int, total: int) -> str:
+    """One line on a finished sweep run: what was hidden, what was named, and the two shrinks (%)."""
+    named = ", ".join(run["named"]) or "nothing"
+    flag = " (unexplained residual)" if run["unexplained"] else ""
+    return (f"run {done} of {total}: {run['hidden']}, seed {run['seed']}: named {named}{flag}, "
+            f"shrink {100 * run['shrink']:.1f} %, oracle {100 * run['oracle_shrink']:.1f} %")
+
+
+def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, size_factor: float = 1.0,
+          lines: bool = False) -> dict:
     """Hide each effect with each seed, through the file and the blind analysis, with the oracle:
     the confusion matrix of hidden vs named (first named), and per effect how often it was named
-    first and the shrink beside the oracle's."""
+    first and the shrink beside the oracle's. ``progress`` draws a bar on stderr; ``lines`` writes
+    one line per finished run there instead (for a log file, where a bar cannot redraw)."""
     import tempfile
 
     from joblib import Parallel, delayed
@@ -619,7 +629,11 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
 
     jobs = [(e, s) for e in effects for s in seeds]
     results = Parallel(n_jobs=-1, return_as="generator")(delayed(one)(e, s) for e, s in jobs)
-    runs = list(tqdm(results, total=len(jobs), desc="hidden-effect runs", disable=not progress, file=sys.stderr))
+    runs = []
+    for run in tqdm(results, total=len(jobs), desc="hidden-effect runs", disable=not progress, file=sys.stderr):
+        runs.append(run)
+        if lines:
+            print(sweep_line(run, len(runs), len(jobs)), file=sys.stderr, flush=True)
     columns = sorted({r["named_first"] for r in runs} | set(effects) | {"unexplained"}, key=lambda n: (n != "none", n))
     matrix = {e: {c: sum(1 for r in runs if r["hidden"] == e and r["named_first"] == c) for c in columns}
               for e in effects}
@@ -719,13 +733,14 @@ def main(argv=None) -> int:
     parser.add_argument("--arm", default="left", choices=("left", "right"),
                         help="arm of --measured bags or CSV files (Parquet dataset files record theirs)")
     parser.add_argument("--out", type=Path, default=Path("results") / "discrepancy")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    parser.add_argument("--no-progress", action="store_true",
+                        help="no progress bars (nor, when stderr is not a terminal, a line per finished sweep run)")
     with StudyRun(parser, argv) as study:
         args = study.args
         progress = not args.no_progress and sys.stderr.isatty()
         if args.sweep:
             sweep(args.effects or SWEEP_EFFECTS, range(args.seed, args.seed + args.seeds), args.duration, study.folder,
-                  progress, args.size_factor)
+                  progress, args.size_factor, lines=not args.no_progress and not progress)
             study.publish()
             study.done()
             return 0

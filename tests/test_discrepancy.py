@@ -563,6 +563,18 @@ def test_the_command_line_refuses_an_unknown_effect_and_a_missing_path(tmp_path,
     assert exit_info.value.code == 2 and "no file or folder" in capsys.readouterr().err
 
 
+def test_a_sweep_run_in_a_log_is_one_line_with_what_was_hidden_named_and_closed():
+    from studies.discrepancy import sweep_line
+
+    run = {"hidden": "backlash", "seed": 19, "named": ["backlash", "capstan_friction"], "unexplained": True,
+           "shrink": 0.41234, "oracle_shrink": 0.355}
+    line = sweep_line(run, 3, 60)
+    assert "\n" not in line
+    assert line == ("run 3 of 60: backlash, seed 19: named backlash, capstan_friction (unexplained residual), "
+                    "shrink 41.2 %, oracle 35.5 %")
+    assert "named nothing, shrink 0.0 %" in sweep_line({**run, "named": [], "unexplained": False, "shrink": 0.0}, 1, 1)
+
+
 def test_a_small_distortion_no_candidate_models_is_unexplained_because_it_repeats():
     # the measured b bends with the square of a's excursion (a cross-joint nonlinearity): no
     # candidate has that form, and at 0.011 deg RMS its gap stays under the unexplained floor, so
