@@ -89,8 +89,8 @@ def motor_load(coupling, tension):
 
 def motor_friction(drive_velocity, coulomb, gearbox_loss, transmitted, stiction_speed):
     """Torque the motors spend on their own and their gearboxes' friction, in joint units:
-    ``(coulomb + gearbox_loss |transmitted|) tanh(u' / v_m)`` (the replay's law,
-    :meth:`simulation.discrepancy.replay.RavenModel.replay`), with ``coulomb`` the motor-shaft
+    ``(coulomb + gearbox_loss |transmitted|) tanh(u' / v_m)`` (:func:`simulation.model.laws.motor_friction`,
+    which the discrepancy replay evaluates), with ``coulomb`` the motor-shaft
     friction already multiplied by the transmission ratio and ``transmitted`` the cables' load
     ``A^T T`` on the motors."""
     return (coulomb + gearbox_loss * ca.fabs(transmitted)) * ca.tanh(drive_velocity / stiction_speed)
