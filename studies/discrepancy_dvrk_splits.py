@@ -6,7 +6,10 @@ learned calibrators trained on the same part) on that split, on the reverse one 
 transfer, report on the random motion) and within each recording (fit and choose on its first
 half, report on its second). For each it lists what was named, the held-out shrink, and the pooled
 held-out wrist RMSE of the named-effect model beside the calibrators'. A form of effect that only
-suits one direction of one split would show here.
+suits one direction of one split would show here. A second table splits each held-out part into
+the samples whose reported wrist joints all lie within the ranges the learning part covered and
+the rest, so that what a model does where it interpolates and where it extrapolates can be told
+apart.
 
 Run: ``python studies/discrepancy_dvrk_splits.py``
 """
@@ -61,6 +64,32 @@ def _parts(split: str, root=None):
     return whole(records[source]), whole(records[target])
 
 
+def within_learned_range(learned: np.ndarray, held_out: np.ndarray) -> np.ndarray:
+    """Which held-out rows lie, in every column, within the range (min to max) of ``learned``.
+
+    Parameters
+    ----------
+    learned : (N, J) the reported joints the models learned from.
+    held_out : (M, J) the reported joints of the held-out part, in the same units.
+
+    Returns
+    -------
+    (M,) bool: True where a model of ``learned`` interpolates, False where it extrapolates.
+    """
+    learned, held_out = np.asarray(learned, dtype=float), np.asarray(held_out, dtype=float)
+    if learned.ndim != 2 or held_out.ndim != 2 or learned.shape[1] != held_out.shape[1] or not len(learned):
+        raise ValueError(f"within_learned_range needs two tables with the same columns and a learned row, got "
+                         f"shapes {learned.shape} and {held_out.shape}")
+    if not (np.all(np.isfinite(learned)) and np.all(np.isfinite(held_out))):
+        raise ValueError("within_learned_range needs finite joints; the learned or held-out table has NaN or inf")
+    return np.all((held_out >= learned.min(axis=0)) & (held_out <= learned.max(axis=0)), axis=1)
+
+
+def _pooled_deg(error: np.ndarray) -> float:
+    """Root mean square over every row and column of a joint error (rad), in degrees; NaN when empty."""
+    return float(np.degrees(np.sqrt(np.mean(np.square(error))))) if error.size else float("nan")
+
+
 def analyse(split: str) -> dict:
     """The workflow and the calibrators on one split."""
     from estimators import FixedOffsetCalibrator, LinearCalibrator, WindowLinearCalibrator
@@ -79,14 +108,18 @@ def analyse(split: str) -> dict:
               "linear": lambda: LinearCalibrator(raw_columns=raw),
               "window linear, 5 rows": lambda: WindowLinearCalibrator(raw_columns=raw, window=5)}
 
-    def pooled_deg(error):
-        return float(np.degrees(np.sqrt(np.mean(np.square(error)))))
-
-    learned = {name: pooled_deg(y1[:, joints] - makers[name]().fit(x0, y0).predict(x1)[:, joints])
-               for name in CALIBRATORS}
+    errors = {name: y1[:, joints] - makers[name]().fit(x0, y0).predict(x1)[:, joints] for name in CALIBRATORS}
+    before, after = result.residual_before.joints, result.residual_after.joints
+    if len(before) != len(t1) or len(after) != len(t1):
+        raise RuntimeError(f"the workflow's held-out part has {len(after)} rows, the split's {len(t1)}")
+    inside = within_learned_range(x0[:, joints], x1[:, joints])
+    by_part = {part: {"before": _pooled_deg(before[mask]), "after": _pooled_deg(after[mask]),
+                      "learned": {name: _pooled_deg(e[mask]) for name, e in errors.items()}}
+               for part, mask in (("inside", inside), ("outside", ~inside))}
     return {"split": split, "named": list(result.named_effects), "shrink": result.shrink,
-            "before": pooled_deg(result.residual_before.joints), "after": pooled_deg(result.residual_after.joints),
-            "learned": learned}
+            "before": _pooled_deg(before), "after": _pooled_deg(after),
+            "learned": {name: _pooled_deg(e) for name, e in errors.items()},
+            "inside_share": float(inside.mean()), "by_range": by_part}
 
 
 def run(config: SplitsConfig, n_jobs: int = -1, backend: str = "loky", scheduler=None, progress: bool = True) -> dict:
@@ -98,19 +131,44 @@ def run(config: SplitsConfig, n_jobs: int = -1, backend: str = "loky", scheduler
 def tables(results: dict) -> list[str]:
     rows = [[r["split"], ", ".join(r["named"]) or "none", f"{100 * r['shrink']:.1f}", f"{r['before']:.3f}",
              f"{r['after']:.3f}", *[f"{r['learned'][name]:.3f}" for name in CALIBRATORS]] for r in results["runs"]]
+    best = CALIBRATORS[-1]
+
+    def shrink(part):
+        return f"{100 * (1 - part['after'] / part['before']):.1f}" if part["before"] > 0 else "-"
+
+    range_rows = []
+    for r in results["runs"]:
+        for name, label in (("inside", "within"), ("outside", "beyond")):
+            part = r["by_range"][name]
+            share = r["inside_share"] if name == "inside" else 1 - r["inside_share"]
+            if share == 0:
+                continue
+            range_rows.append([r["split"], label, f"{100 * share:.1f}", shrink(part), f"{part['before']:.3f}",
+                               f"{part['after']:.3f}", f"{part['learned'][best]:.3f}"])
     return ["## The dVRK wrist analysis on four splits (held-out pooled wrist RMSE, deg)", "",
             reporting.markdown_table(["fit -> held out", "named", "shrink %", "starting model", "named effects",
                                       *CALIBRATORS], rows), "",
             "Named effects: the workflow's model after what it named (fitted on the first two thirds of the "
-            "learning part, chosen on its last third); the calibrators learn from the whole learning part."]
+            "learning part, chosen on its last third); the calibrators learn from the whole learning part.", "",
+            "## Held-out samples within and beyond the learning part's wrist ranges (pooled RMSE, deg)", "",
+            reporting.markdown_table(["fit -> held out", "reported wrist joints", "share of held out %", "shrink %",
+                                      "starting model", "named effects", best], range_rows), "",
+            "Within: every reported wrist joint inside the range (min to max) the learning part covered; "
+            "beyond: at least one outside it, where every model extrapolates."]
 
 
 def finding(results: dict) -> str:
     parts = []
     for r in results["runs"]:
         best = min(r["learned"], key=r["learned"].get)
-        parts.append(f"{r['split']}: {100 * r['shrink']:.1f} % closed, {r['after']:.2f} deg against "
-                     f"{r['learned'][best]:.2f} for the best calibrator ({best})")
+        text = (f"{r['split']}: {100 * r['shrink']:.1f} % closed, {r['after']:.2f} deg against "
+                f"{r['learned'][best]:.2f} for the best calibrator ({best})")
+        if 0 < r["inside_share"] < 1:
+            within, beyond = (r["by_range"][p] for p in ("inside", "outside"))
+            text += (f" ({100 * (1 - r['inside_share']):.0f} % of the held-out samples beyond the learned wrist "
+                     f"ranges: {100 * (1 - within['after'] / within['before']):.1f} % closed within them, "
+                     f"{100 * (1 - beyond['after'] / beyond['before']):.1f} % beyond)")
+        parts.append(text)
     return "; ".join(parts) + "."
 
 

@@ -291,3 +291,21 @@ def test_paper_table_i_reproduces_its_printed_percentages():
                         83.5, abs_tol=0.06)
     assert paper.HEADLINE["dnn_joint_rmse"] == j2j3["dnn"]
     assert set(paper.TABLE_I) == set(paper.TABLE_I_DIRECTIONS)
+
+
+def test_held_out_rows_are_within_the_learned_range_only_when_every_joint_is():
+    from studies.discrepancy_dvrk_splits import within_learned_range
+
+    learned = np.array([[0.0, -1.0], [2.0, 1.0], [1.0, 0.0]])
+    held_out = np.array([[1.0, 0.5],    # inside both ranges
+                         [2.0, -1.0],   # on both edges: inside
+                         [2.1, 0.0],    # first joint beyond its range
+                         [1.0, -1.5],   # second joint beyond its range
+                         [-0.1, 2.0]])  # both beyond
+    np.testing.assert_array_equal(within_learned_range(learned, held_out), [True, True, False, False, False])
+    with pytest.raises(ValueError, match=r"same columns.*\(3, 2\) and \(2, 3\)"):
+        within_learned_range(learned, np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="learned row"):
+        within_learned_range(np.zeros((0, 2)), held_out)
+    with pytest.raises(ValueError, match="NaN"):
+        within_learned_range(learned, np.array([[1.0, np.nan]]))
