@@ -131,7 +131,7 @@ def run(config: SplitsConfig, n_jobs: int = -1, backend: str = "loky", scheduler
 def tables(results: dict) -> list[str]:
     rows = [[r["split"], ", ".join(r["named"]) or "none", f"{100 * r['shrink']:.1f}", f"{r['before']:.3f}",
              f"{r['after']:.3f}", *[f"{r['learned'][name]:.3f}" for name in CALIBRATORS]] for r in results["runs"]]
-    best = CALIBRATORS[-1]
+    window = CALIBRATORS[-1]
 
     def shrink(part):
         return f"{100 * (1 - part['after'] / part['before']):.1f}" if part["before"] > 0 else "-"
@@ -144,7 +144,7 @@ def tables(results: dict) -> list[str]:
             if share == 0:
                 continue
             range_rows.append([r["split"], label, f"{100 * share:.1f}", shrink(part), f"{part['before']:.3f}",
-                               f"{part['after']:.3f}", f"{part['learned'][best]:.3f}"])
+                               f"{part['after']:.3f}", f"{part['learned'][window]:.3f}"])
     return ["## The dVRK wrist analysis on four splits (held-out pooled wrist RMSE, deg)", "",
             reporting.markdown_table(["fit -> held out", "named", "shrink %", "starting model", "named effects",
                                       *CALIBRATORS], rows), "",
@@ -152,7 +152,7 @@ def tables(results: dict) -> list[str]:
             "learning part, chosen on its last third); the calibrators learn from the whole learning part.", "",
             "## Held-out samples within and beyond the learning part's wrist ranges (pooled RMSE, deg)", "",
             reporting.markdown_table(["fit -> held out", "reported wrist joints", "share of held out %", "shrink %",
-                                      "starting model", "named effects", best], range_rows), "",
+                                      "starting model", "named effects", window], range_rows), "",
             "Within: every reported wrist joint inside the range (min to max) the learning part covered; "
             "beyond: at least one outside it, where every model extrapolates."]
 

@@ -309,3 +309,26 @@ def test_held_out_rows_are_within_the_learned_range_only_when_every_joint_is():
         within_learned_range(np.zeros((0, 2)), held_out)
     with pytest.raises(ValueError, match="NaN"):
         within_learned_range(learned, np.array([[1.0, np.nan]]))
+
+
+def test_the_splits_table_gives_each_range_its_share_and_shrink_and_skips_an_empty_one():
+    from studies.discrepancy_dvrk_splits import CALIBRATORS, finding, tables
+
+    def part(before, after, learned):
+        return {"before": before, "after": after, "learned": {name: learned for name in CALIBRATORS}}
+
+    nan = float("nan")
+    runs = [{"split": "random -> peg", "named": ["coupled_hysteresis"], "shrink": 0.5, "before": 8.0, "after": 4.0,
+             "learned": {name: 5.0 for name in CALIBRATORS}, "inside_share": 1.0,
+             "by_range": {"inside": part(8.0, 4.0, 5.0), "outside": part(nan, nan, nan)}},
+            {"split": "peg -> random", "named": [], "shrink": 0.2, "before": 10.0, "after": 8.0,
+             "learned": {name: 7.0 for name in CALIBRATORS}, "inside_share": 0.75,
+             "by_range": {"inside": part(8.0, 6.0, 6.5), "outside": part(12.0, 10.8, 9.0)}}]
+    lines = "\n".join(tables({"runs": runs})).splitlines()
+    range_rows = [line for line in lines if "| within |" in line or "| beyond |" in line]
+    assert range_rows == ["| random -> peg | within | 100.0 | 50.0 | 8.000 | 4.000 | 5.000 |",
+                          "| peg -> random | within | 75.0 | 25.0 | 8.000 | 6.000 | 6.500 |",
+                          "| peg -> random | beyond | 25.0 | 10.0 | 12.000 | 10.800 | 9.000 |"]
+    text = finding({"runs": runs})
+    assert "25 % of the held-out samples beyond the learned wrist ranges: 25.0 % closed within them, 10.0 % beyond" \
+        in text and text.count("beyond the learned") == 1
