@@ -90,6 +90,12 @@ def _pooled_deg(error: np.ndarray) -> float:
     return float(np.degrees(np.sqrt(np.mean(np.square(error))))) if error.size else float("nan")
 
 
+def _shrink_percent(part: dict) -> float:
+    """How much of the starting model's pooled RMSE the named effects close on one part, in %
+    (the workflow's own shrink, ``1 - after / before``); NaN on an empty part."""
+    return 100 * (1 - part["after"] / part["before"]) if part["before"] > 0 else float("nan")
+
+
 def analyse(split: str) -> dict:
     """The workflow and the calibrators on one split."""
     from estimators import FixedOffsetCalibrator, LinearCalibrator, WindowLinearCalibrator
@@ -133,9 +139,6 @@ def tables(results: dict) -> list[str]:
              f"{r['after']:.3f}", *[f"{r['learned'][name]:.3f}" for name in CALIBRATORS]] for r in results["runs"]]
     window = CALIBRATORS[-1]
 
-    def shrink(part):
-        return f"{100 * (1 - part['after'] / part['before']):.1f}" if part["before"] > 0 else "-"
-
     range_rows = []
     for r in results["runs"]:
         for name, label in (("inside", "within"), ("outside", "beyond")):
@@ -143,8 +146,8 @@ def tables(results: dict) -> list[str]:
             share = r["inside_share"] if name == "inside" else 1 - r["inside_share"]
             if share == 0:
                 continue
-            range_rows.append([r["split"], label, f"{100 * share:.1f}", shrink(part), f"{part['before']:.3f}",
-                               f"{part['after']:.3f}", f"{part['learned'][window]:.3f}"])
+            range_rows.append([r["split"], label, f"{100 * share:.1f}", f"{_shrink_percent(part):.1f}",
+                               f"{part['before']:.3f}", f"{part['after']:.3f}", f"{part['learned'][window]:.3f}"])
     return ["## The dVRK wrist analysis on four splits (held-out pooled wrist RMSE, deg)", "",
             reporting.markdown_table(["fit -> held out", "named", "shrink %", "starting model", "named effects",
                                       *CALIBRATORS], rows), "",
@@ -166,8 +169,8 @@ def finding(results: dict) -> str:
         if 0 < r["inside_share"] < 1:
             within, beyond = (r["by_range"][p] for p in ("inside", "outside"))
             text += (f" ({100 * (1 - r['inside_share']):.0f} % of the held-out samples beyond the learned wrist "
-                     f"ranges: {100 * (1 - within['after'] / within['before']):.1f} % closed within them, "
-                     f"{100 * (1 - beyond['after'] / beyond['before']):.1f} % beyond)")
+                     f"ranges: {_shrink_percent(within):.1f} % closed within them, "
+                     f"{_shrink_percent(beyond):.1f} % beyond)")
         parts.append(text)
     return "; ".join(parts) + "."
 
