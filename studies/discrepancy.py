@@ -5,7 +5,7 @@
     python studies/discrepancy.py --hidden-effect none
     python studies/discrepancy.py --ablate coupling                 # the model lacks a term the data have
     python studies/discrepancy.py --measured ../shared/data/dvrk_hwang2020
-    python studies/discrepancy.py --sweep --seeds 5                 # hidden vs named, with the oracle
+    python studies/discrepancy.py --sweep --seeds 5 --duration 240  # hidden vs named, with the oracle
 
 ``--measured PATH`` is the blind analysis. On RAVEN-II data (a dataset file ``.parquet``/``.csv``,
 ROS bags, or a folder of either) it always starts from the same structure, the cable model of
@@ -14,8 +14,8 @@ ROS bags, or a folder of either) it always starts from the same structure, the c
 data were made. On the dVRK folder format the start is the dVRK's own nominal model (measured joints
 = reported joints plus offsets; wrist joints 4-6 by default) with the generic library.
 
-``--hidden-effect NAME`` generates data with the virtual RAVEN-II: the starting structure plus NAME
-and nothing else (``none``: nothing; several names separated by commas; NAME from the library, or
+``--hidden-effect NAME`` generates data with the virtual RAVEN-II (twenty minutes of random motion
+unless ``--duration`` says otherwise): the starting structure plus NAME and nothing else (``none``: nothing; several names separated by commas; NAME from the library, or
 ``capstan_runout``, which the library lacks). It writes them as ``DIR/measured.parquet`` and runs
 exactly the ``--measured`` analysis on that file. Only then, knowing the generator, it adds to the
 report the true parameters beside the fitted ones and the oracle: the generator's true structure
@@ -45,6 +45,7 @@ from simulation.discrepancy.signals import pooled_rmse, report_scale
 from studies.common.data_sources import is_dvrk_folder
 from studies.common.discrepancy_runs import (
     ABLATION_CHOICES,
+    DEFAULT_RECORD_S,
     HIDDEN_CHOICES,
     HIDDEN_PAYLOAD_KG,
     LIBRARY,
@@ -61,6 +62,7 @@ from studies.common.discrepancy_runs import (
     run_on_dvrk,
     run_on_raven_dataset,
     SHORT_RECORD_S,
+    drift_record_note,
     short_record_note,
     true_values,
     verdict,
@@ -337,6 +339,8 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
     note = short_record_note(signals)
     document["record_s"] = float(signals.time[-1] - signals.time[0])
     document["short_record"] = note
+    drift_note = drift_record_note(signals)
+    document["drift_note"] = drift_note
     json_path = write_json(out / "report.json", document)
     units = _unit_names(result.units)
     before_state = result.model_before.replay(signals)
@@ -360,6 +364,7 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         f"{kind}. Starting structure: {start}. Candidates screened: {', '.join(result.library) or 'none'}.",
         "",
         *([] if note is None else [f"**Short record:** {note}.", ""]),
+        *([] if drift_note is None else [f"**Record too short for drift:** {drift_note}.", ""]),
         f"- named effects (in order): {', '.join(result.named_effects) or 'none'}",
         *[f"- {named} was named by a BIC margin of at most {WorkflowSettings().bic_tie:g} over "
           + ", ".join(f"{name} (BIC higher by {d:.2f})" for name, d in rivals.items())
@@ -723,7 +728,10 @@ def main(argv=None) -> int:
     source.add_argument("--sweep", action="store_true", help="confusion matrix of hidden vs named effects")
     parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of generated data")
     parser.add_argument("--seeds", type=positive_int, default=3, help="seeds per effect for --sweep")
-    parser.add_argument("--duration", type=positive_float, default=240.0, help="seconds of generated random motion")
+    parser.add_argument("--duration", type=positive_float, default=DEFAULT_RECORD_S,
+                        help="seconds of generated random motion (default: twenty minutes, the paper's random tests "
+                             "and the shortest record on which drift at its published size was named; 240 for a "
+                             "quicker look that cannot show drift)")
     parser.add_argument("--size-factor", type=positive_float, default=1.0,
                         help="generate the hidden effect at this multiple of its default size (default 1: the "
                              "size its source gives)")
@@ -781,6 +789,9 @@ def main(argv=None) -> int:
     note = short_record_note(signals)
     if note is not None:
         print(f"warning: {note}", file=sys.stderr)
+    drift_note = drift_record_note(signals)
+    if drift_note is not None:
+        print(f"note: {drift_note}", file=sys.stderr)
     print(f"named effects: {', '.join(result.named_effects) or 'none'}; unexplained: {result.unexplained}")
     for name, b, a, u in zip(result.joint_names, _scaled(result.gap_before, result.units),
                              _scaled(result.gap_after, result.units), units):

@@ -2,7 +2,8 @@
 at the generator's values.
 
 A diagnostic, never part of an analysis: it knows the generator. It generates the data of
-``python studies/discrepancy.py --hidden-effect NAME --seed S`` and runs the same workflow twice on
+``python studies/discrepancy.py --hidden-effect NAME --seed S --duration D`` (D = 240 s unless
+``--duration`` says otherwise) and runs the same workflow twice on
 them, once as the blind analysis does and once with the candidate called ``NAME`` fitted to the
 generator's values (:func:`studies.common.discrepancy_runs.true_values`) wherever the workflow fits
 it. If the pinned run closes the gap and names nothing after it while the blind run does not, the

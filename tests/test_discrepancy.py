@@ -265,6 +265,7 @@ def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
     assert len(report["residual_structure"]) == 2  # checked after the named effects too
     # 30 s of generic data: the short-record warning is about the RAVEN-II starting structure only
     assert report["record_s"] == pytest.approx(29.99) and report["short_record"] is None
+    assert report["drift_note"] is None
     # parameters in SI with their units, reported in degrees and millimetres
     first = report["named_effects"][0]
     assert set(report["parameter_units"][first]) == set(report["fitted_parameters"][first])
@@ -297,6 +298,36 @@ def test_a_raven_record_under_a_minute_is_reported_as_short_and_a_minute_is_not(
     assert note.startswith("the record lasts 30 s, under 60 s")
     assert short_record_note(signals(60.0)) is None
     assert short_record_note(signals(30.0, kind="generic")) is None
+
+
+def test_a_raven_record_under_twenty_minutes_is_noted_as_too_short_for_drift(monkeypatch, tmp_path):
+    from dataclasses import replace
+
+    import studies.discrepancy as command
+    from studies.common.discrepancy_runs import AGING_RECORD_S, DEFAULT_RECORD_S, drift_record_note
+
+    assert AGING_RECORD_S == DEFAULT_RECORD_S == 1200.0
+
+    def signals(seconds, kind="raven"):
+        time = np.arange(int(round(seconds * 2)) + 1) / 2.0
+        truth = np.column_stack([0.3 * np.sin(0.07 * time), 0.02 * np.sin(0.13 * time)])
+        return replace(_raven_like_signals(truth, time), kind=kind)
+
+    assert drift_record_note(signals(240.0)).startswith("the record lasts 240 s, under 1200 s: drift")
+    assert drift_record_note(signals(1199.0)) is not None
+    assert drift_record_note(signals(1200.0)) is None
+    assert drift_record_note(signals(240.0, kind="generic")) is None
+
+    asked = {}
+
+    def stop_before_generating(hidden, seed, duration, **_):
+        asked["duration"] = duration
+        raise RuntimeError("stopped before generating")
+
+    monkeypatch.setattr(command, "generate_measured", stop_before_generating)
+    with pytest.raises(RuntimeError, match="stopped before generating"):
+        command.main(["--hidden-effect", "none", "--no-progress", "--out", str(tmp_path / "out")])
+    assert asked["duration"] == DEFAULT_RECORD_S  # the command generates records long enough to show drift
 
 
 def test_the_replay_velocity_is_causal_and_does_not_lag():
