@@ -6,6 +6,7 @@
     python studies/discrepancy.py --ablate coupling                 # the model lacks a term the data have
     python studies/discrepancy.py --measured ../shared/data/dvrk_hwang2020
     python studies/discrepancy.py --sweep --seeds 5 --duration 240  # hidden vs named, with the oracle
+    python studies/discrepancy.py --merge-sweeps PART1 PART2        # one table from sweeps run apart
 
 ``--measured PATH`` is the blind analysis. On RAVEN-II data (a dataset file ``.parquet``/``.csv``,
 ROS bags, or a folder of either) it always starts from the same structure, the cable model of
@@ -71,6 +72,7 @@ from studies.common.discrepancy_runs import (
 from studies.common.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text
 from studies.common.runner import (
     StudyRun,
+    UsageError,
     existing_path,
     non_negative_int,
     positive_float,
@@ -639,6 +641,23 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         runs.append(run)
         if lines:
             print(sweep_line(run, len(runs), len(jobs)), file=sys.stderr, flush=True)
+    return summarise_sweep(runs, duration, out, size_factor, effects)
+
+
+def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: float = 1.0, effects=None,
+                    extra: dict | None = None) -> dict:
+    """Write the confusion matrix, the per-effect summary and the runs' table of sweep ``runs``
+    (``confusion.md``, ``confusion.json`` in ``out``) and return the document.
+
+    ``effects`` orders the rows (default: the order of :data:`SWEEP_EFFECTS`); the seeds are those
+    the runs hold, so effects may have been run on different seeds (a merged sweep). ``extra`` is
+    added to ``confusion.json`` as it is.
+    """
+    present = {r["hidden"] for r in runs}
+    order = list(effects) if effects is not None else list(SWEEP_EFFECTS)
+    effects = [e for e in order if e in present] + sorted(present - set(order))
+    runs = sorted(runs, key=lambda r: (effects.index(r["hidden"]), r["seed"]))
+    seeds = sorted({r["seed"] for r in runs})
     columns = sorted({r["named_first"] for r in runs} | set(effects) | {"unexplained"}, key=lambda n: (n != "none", n))
     matrix = {e: {c: sum(1 for r in runs if r["hidden"] == e and r["named_first"] == c) for c in columns}
               for e in effects}
@@ -710,10 +729,49 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
     write_text(out / "confusion.md", text)
     document = {"effects": list(effects), "seeds": list(seeds), "duration_s": duration, "size_factor": size_factor,
                 "columns": columns, "starting_structure": list(STARTING_STRUCTURE), "library": list(LIBRARY),
-                "matrix": matrix, "runs": runs}
+                "matrix": matrix, "runs": runs, **(extra or {})}
     write_json(out / "confusion.json", document)
     print(text)
     return document
+
+
+def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
+    """The runs of sweeps made apart (each a folder holding ``confusion.json``, or that file), to be
+    summarised as one: ``(runs, duration_s, size_factor, files)``.
+
+    Sweeps take hours, so they are often run in parts (other seeds, other effects, other hosts).
+    The parts must share the record length, the effect sizes, and this version's starting structure
+    and library, and no hidden effect may appear twice with the same seed; anything else raises
+    :class:`UsageError` naming the file and what differs.
+    """
+    runs, seen, files, lengths, factors = [], {}, [], set(), set()
+    for path in map(Path, paths):
+        file = path / "confusion.json" if path.is_dir() else path
+        try:
+            document = json.loads(file.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+            raise UsageError(f"{file} is not a sweep's confusion.json ({type(error).__name__}: {error})") from error
+        if not isinstance(document, dict) or not isinstance(document.get("runs"), list) or "duration_s" not in document:
+            raise UsageError(f"{file} is not a sweep's confusion.json (no 'runs' and 'duration_s')")
+        for key, ours in (("starting_structure", STARTING_STRUCTURE), ("library", LIBRARY)):
+            if document.get(key) != list(ours):
+                raise UsageError(f"{file} was swept with another {key.replace('_', ' ')} ({document.get(key)}) than "
+                                 f"this version's ({list(ours)})")
+        lengths.add(float(document["duration_s"]))
+        factors.add(float(document.get("size_factor", 1.0)))
+        if len(lengths) > 1 or len(factors) > 1:
+            raise UsageError(f"{file} differs from the sweeps before it in record length or effect size "
+                             f"(durations {sorted(lengths)} s, size factors {sorted(factors)})")
+        for run in document["runs"]:
+            key = (run["hidden"], run["seed"])
+            if key in seen:
+                raise UsageError(f"{run['hidden']} with seed {run['seed']} is in both {seen[key]} and {file}")
+            seen[key] = file
+            runs.append(run)
+        files.append(str(file))
+    if not runs:
+        raise UsageError("the sweeps hold no runs")
+    return runs, lengths.pop(), factors.pop(), files
 
 
 def main(argv=None) -> int:
@@ -726,6 +784,8 @@ def main(argv=None) -> int:
     source.add_argument("--ablate", type=parse_ablated, metavar="NAME",
                         help=f"ablation: the model lacks one of {', '.join(ABLATION_CHOICES)}")
     source.add_argument("--sweep", action="store_true", help="confusion matrix of hidden vs named effects")
+    source.add_argument("--merge-sweeps", type=existing_path, nargs="+", metavar="DIR",
+                        help="one confusion matrix from sweeps run apart (their --out folders or confusion.json)")
     parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of generated data")
     parser.add_argument("--seeds", type=positive_int, default=3, help="seeds per effect for --sweep")
     parser.add_argument("--duration", type=positive_float, default=DEFAULT_RECORD_S,
@@ -746,6 +806,12 @@ def main(argv=None) -> int:
     with StudyRun(parser, argv) as study:
         args = study.args
         progress = not args.no_progress and sys.stderr.isatty()
+        if args.merge_sweeps:
+            runs, duration, size_factor, files = read_sweeps(args.merge_sweeps)
+            summarise_sweep(runs, duration, study.folder, size_factor, extra={"merged_from": files})
+            study.publish()
+            study.done()
+            return 0
         if args.sweep:
             sweep(args.effects or SWEEP_EFFECTS, range(args.seed, args.seed + args.seeds), args.duration, study.folder,
                   progress, args.size_factor, lines=not args.no_progress and not progress)

@@ -1,0 +1,72 @@
+"""Sweeps of the discrepancy workflow run in parts and summarised as one (``--merge-sweeps``).
+
+The runs are written by hand (a sweep's runs take hours): what is checked is the bookkeeping, that
+parts merge into exactly the table one sweep over the same runs gives, and that parts which cannot
+be compared are refused with a line naming the file and what differs.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from studies.common.discrepancy_runs import LIBRARY, STARTING_STRUCTURE
+from studies.discrepancy import main, summarise_sweep
+
+
+def _run(hidden: str, seed: int, named=(), shrink=0.0, oracle=0.0) -> dict:
+    first = named[0] if named else "none"
+    return {"hidden": hidden, "seed": seed, "named_first": first, "named": list(named), "equivalent": {},
+            "rivals": {}, "unexplained": False, "gap_before": 0.004 + 0.001 * seed, "shrink": shrink,
+            "oracle_shrink": oracle, "residual_structure": [0.1, 0.05, 0.02],
+            "oracle_residual_structure": [0.1, 0.05, 0.02], "signature": [], "command_shrink": None}
+
+
+RUNS = [_run("none", 0), _run("none", 1),
+        _run("backlash", 0, ("backlash",), 0.40, 0.40), _run("backlash", 1, (), 0.0, 0.35),
+        _run("hysteresis", 2, ("hysteresis",), 0.70, 0.70)]
+
+
+def _part(folder, runs, duration=1200.0, **changes):
+    document = summarise_sweep(runs, duration, folder)
+    document.update(changes)
+    (folder / "confusion.json").write_text(json.dumps(document))
+    return folder
+
+
+def _summary_table(text: str) -> str:
+    return text.split("## Per hidden effect")[1].split("## Confusion matrix")[0]
+
+
+def test_parts_merge_into_the_table_of_one_sweep_over_the_same_runs(tmp_path):
+    whole = summarise_sweep(RUNS, 1200.0, tmp_path / "whole")
+    first = _part(tmp_path / "a", [RUNS[3], RUNS[0]])
+    second = _part(tmp_path / "b", [RUNS[4], RUNS[2], RUNS[1]])
+    assert main(["--merge-sweeps", str(first), str(second / "confusion.json"), "--out", str(tmp_path / "m")]) == 0
+    merged = json.loads((tmp_path / "m" / "confusion.json").read_text())
+    assert merged["matrix"] == whole["matrix"] and merged["runs"] == whole["runs"]
+    assert merged["seeds"] == [0, 1, 2] and merged["duration_s"] == 1200.0
+    assert merged["merged_from"] == [str(first / "confusion.json"), str(second / "confusion.json")]
+    table = _summary_table((tmp_path / "m" / "confusion.md").read_text())
+    assert table == _summary_table((tmp_path / "whole" / "confusion.md").read_text())
+    # backlash named on one seed of two, hysteresis on its one: the goal is counted per effect
+    assert "| backlash | 1 of 2 |" in table and "| no |" in table and "| hysteresis | 1 of 1 |" in table
+
+
+@pytest.mark.parametrize("second, changes, named", [
+    ([RUNS[2]], {}, "backlash with seed 0 is in both"),
+    ([RUNS[4]], {"duration_s": 240.0}, "differs from the sweeps before it in record length or effect size"),
+    ([RUNS[4]], {"size_factor": 3.0}, "size factors [1.0, 3.0]"),
+    ([RUNS[4]], {"library": list(LIBRARY[:-1])}, "was swept with another library"),
+    ([RUNS[4]], {"starting_structure": list(STARTING_STRUCTURE) + ["drift"]}, "another starting structure"),
+])
+def test_parts_that_cannot_be_compared_are_refused_in_one_line(tmp_path, capsys, second, changes, named):
+    first = _part(tmp_path / "a", RUNS[:3])
+    other = _part(tmp_path / "b", second, **changes)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--merge-sweeps", str(first), str(other), "--out", str(tmp_path / "m")])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert exit_info.value.code == 2
+    assert len(lines) == 1 and named in lines[0], lines
+    assert not (tmp_path / "m").exists()
