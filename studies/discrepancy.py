@@ -16,8 +16,9 @@ data were made. On the dVRK folder format the start is the dVRK's own nominal mo
 = reported joints plus offsets; wrist joints 4-6 by default) with the generic library.
 
 ``--hidden-effect NAME`` generates data with the virtual RAVEN-II (twenty minutes of random motion
-unless ``--duration`` says otherwise): the starting structure plus NAME and nothing else (``none``: nothing; several names separated by commas; NAME from the library, or
-``capstan_runout``, which the library lacks). It writes them as ``DIR/measured.parquet`` and runs
+unless ``--duration`` says otherwise): the starting structure plus NAME and nothing else (``none``:
+nothing; several names separated by commas; NAME from the library, or ``capstan_runout``, which the
+library lacks). It writes them as ``DIR/measured.parquet`` and runs
 exactly the ``--measured`` analysis on that file. Only then, knowing the generator, it adds to the
 report the true parameters beside the fitted ones and the oracle: the generator's true structure
 fitted to the same fit part, whose held-out gap is what a model of the right structure closes. An
