@@ -294,14 +294,21 @@ AGING_RECORD_S = DEFAULT_RECORD_S
 was never named on records that short, so its absence from the names says little."""
 
 
+def _raven_record_under(signals: MeasuredSignals, seconds_limit: float) -> float | None:
+    """The length (s) of a RAVEN-II record shorter than ``seconds_limit``; None for a longer record
+    or another robot's (the notes on short records concern the RAVEN-II starting structure only)."""
+    if signals.kind != "raven":
+        return None
+    seconds = float(signals.time[-1] - signals.time[0])
+    return seconds if seconds < seconds_limit else None
+
+
 def drift_record_note(signals: MeasuredSignals) -> str | None:
     """A sentence on why a RAVEN-II record shorter than :data:`AGING_RECORD_S` cannot show drift, or
     None. Drift grows with the cables' hours of use; the workflow fits on the record's first half,
     where it is smallest, so a short record leaves it below the naming test's thresholds."""
-    if signals.kind != "raven":
-        return None
-    seconds = float(signals.time[-1] - signals.time[0])
-    if seconds >= AGING_RECORD_S:
+    seconds = _raven_record_under(signals, AGING_RECORD_S)
+    if seconds is None:
         return None
     return (f"the record lasts {seconds:.0f} s, under {AGING_RECORD_S:.0f} s: drift at its published size (one hour "
             "of aging per hour of use) was named on none of the generated four- and ten-minute records, so its "
@@ -310,10 +317,8 @@ def drift_record_note(signals: MeasuredSignals) -> str | None:
 
 def short_record_note(signals: MeasuredSignals) -> str | None:
     """A sentence on why the names of an analysis of a short RAVEN-II record are in doubt, or None."""
-    if signals.kind != "raven":
-        return None
-    seconds = float(signals.time[-1] - signals.time[0])
-    if seconds >= SHORT_RECORD_S:
+    seconds = _raven_record_under(signals, SHORT_RECORD_S)
+    if seconds is None:
         return None
     return (f"the record lasts {seconds:.0f} s, under {SHORT_RECORD_S:.0f} s: the starting structure, identified "
             "on its first half, may itself leave a gap that a candidate then takes (with nothing hidden, 30 s "
