@@ -311,6 +311,66 @@ def test_held_out_rows_are_within_the_learned_range_only_when_every_joint_is():
         within_learned_range(learned, np.array([[1.0, np.nan]]))
 
 
+def test_play_leverage_is_the_hat_matrix_diagonal_scaled_to_average_one_and_infinite_off_the_span():
+    from studies.discrepancy_dvrk_splits import play_leverage
+
+    rng = np.random.default_rng(3)
+    learned = rng.normal(size=(400, 4)) * [1.0, 0.1, 2.0, 0.5]
+    learned[:, 3] = learned[:, 0] - learned[:, 2]  # rank 3 of 4 columns: one combination never excited
+    held_out = np.vstack([learned[:5], 3.0 * learned[5:8], [[0.0, 1.0, 0.0, 0.0]], [[1.0, 0.0, 0.0, 0.0]]])
+    leverage = play_leverage(learned, held_out)
+    # an independent computation: the diagonal of the hat matrix with a constant column, times rows over rank
+    x = np.column_stack([learned, np.ones(len(learned))])
+    h = np.column_stack([held_out, np.ones(len(held_out))])
+    hat = np.einsum("ij,jk,ik->i", h, np.linalg.pinv(x.T @ x), h) * len(x) / np.linalg.matrix_rank(x)
+    np.testing.assert_allclose(leverage[:9], hat[:9], rtol=1e-9)
+    assert play_leverage(learned, learned).mean() == pytest.approx(1.0, abs=1e-12)
+    # one unit along a column whose learned spread is 0.1 lies ten spreads out: a leverage of about
+    # 10 ** 2 over the rank (4 with the constant), far above the learned rows' 1; off the span, unbounded
+    assert 15 < leverage[8] < 35
+    assert np.isinf(leverage[9]) and np.all(np.isfinite(leverage[:9]))
+    with pytest.raises(ValueError, match=r"same columns.*\(400, 4\) and \(2, 3\)"):
+        play_leverage(learned, np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="NaN"):
+        play_leverage(learned, np.array([[np.nan, 0.0, 0.0, 0.0]]))
+
+
+def test_leverage_quarters_are_equal_shares_by_rank_with_the_unbounded_on_top():
+    from studies.discrepancy_dvrk_splits import leverage_quarters
+
+    leverage = np.array([5.0, np.inf, 0.5, 2.0, 2.0, 9.0, 1.0, np.inf])
+    np.testing.assert_array_equal(leverage_quarters(leverage), [2, 3, 0, 1, 1, 2, 0, 3])
+    with pytest.raises(ValueError, match="at least 4 leverages and no NaN"):
+        leverage_quarters(np.array([1.0, np.nan, 2.0, 3.0]))
+    with pytest.raises(ValueError, match="at least 4"):
+        leverage_quarters(np.ones(3))
+
+
+def test_the_splits_leverage_table_lists_every_quarter_and_the_finding_its_ends():
+    from studies.discrepancy_dvrk_splits import CALIBRATORS, finding, tables
+
+    def part(before, after, learned):
+        return {"before": before, "after": after, "learned": {name: learned for name in CALIBRATORS}}
+
+    quarters = [dict(part(8.0, 4.0, 5.0), low=0.5, high=2.0, leverage_median=1.2),
+                dict(part(8.0, 6.0, 5.0), low=2.0, high=4.0, leverage_median=3.0),
+                dict(part(9.0, 8.1, 5.0), low=4.0, high=9.0, leverage_median=6.0),
+                dict(part(10.0, 10.5, 7.0), low=9.0, high=40.0, leverage_median=14.0)]
+    runs = [{"split": "peg -> random", "named": ["coupled_hysteresis"], "shrink": 0.2, "before": 9.0, "after": 7.0,
+             "learned": {name: 6.0 for name in CALIBRATORS}, "inside_share": 1.0,
+             "by_range": {"inside": part(9.0, 7.0, 6.0), "outside": part(float("nan"), float("nan"), float("nan"))},
+             "leverage_median": 4.1, "by_leverage": quarters}]
+    lines = "\n".join(tables({"runs": runs})).splitlines()
+    rows = [line for line in lines if line.startswith("| peg -> random | ") and "quarter" not in line
+            and ("lowest" in line or "| 2nd |" in line or "| 3rd |" in line or "highest" in line)]
+    assert rows == ["| peg -> random | 1st (lowest) | 0.5 to 2.0 | 1.2 | 50.0 | 8.000 | 4.000 | 5.000 |",
+                    "| peg -> random | 2nd | 2.0 to 4.0 | 3.0 | 25.0 | 8.000 | 6.000 | 5.000 |",
+                    "| peg -> random | 3rd | 4.0 to 9.0 | 6.0 | 10.0 | 9.000 | 8.100 | 5.000 |",
+                    "| peg -> random | 4th (highest) | 9.0 to 40.0 | 14.0 | -5.0 | 10.000 | 10.500 | 7.000 |"]
+    assert ("median play-feature leverage 4.1: 50.0 % closed on the held-out quarter of lowest leverage, "
+            "-5.0 % on the highest") in finding({"runs": runs})
+
+
 def test_the_splits_table_gives_each_range_its_share_and_shrink_and_skips_an_empty_one():
     from studies.discrepancy_dvrk_splits import CALIBRATORS, finding, tables
 
@@ -326,9 +386,9 @@ def test_the_splits_table_gives_each_range_its_share_and_shrink_and_skips_an_emp
              "by_range": {"inside": part(8.0, 6.0, 6.5), "outside": part(12.0, 10.8, 9.0)}}]
     lines = "\n".join(tables({"runs": runs})).splitlines()
     range_rows = [line for line in lines if "| within |" in line or "| beyond |" in line]
-    assert range_rows == ["| random -> peg | within | 100.0 | 50.0 | 8.000 | 4.000 | 5.000 |",
-                          "| peg -> random | within | 75.0 | 25.0 | 8.000 | 6.000 | 6.500 |",
-                          "| peg -> random | beyond | 25.0 | 10.0 | 12.000 | 10.800 | 9.000 |"]
+    assert range_rows == ["| random -> peg | within | 100.0 | - | 50.0 | 8.000 | 4.000 | 5.000 |",
+                          "| peg -> random | within | 75.0 | - | 25.0 | 8.000 | 6.000 | 6.500 |",
+                          "| peg -> random | beyond | 25.0 | - | 10.0 | 12.000 | 10.800 | 9.000 |"]
     text = finding({"runs": runs})
     assert "25 % of the held-out samples beyond the learned wrist ranges: 25.0 % closed within them, 10.0 % beyond" \
         in text and text.count("beyond the learned") == 1
