@@ -69,6 +69,18 @@ def _parts(split: str, root=None):
     return whole(records[source]), whole(records[target])
 
 
+def _learned_and_held_out(caller: str, learned, held_out, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """The two tables as float arrays, or a one-line error naming ``caller`` when they are not two
+    tables of the same columns, the learned one with a row, both finite."""
+    learned, held_out = np.asarray(learned, dtype=float), np.asarray(held_out, dtype=float)
+    if learned.ndim != 2 or held_out.ndim != 2 or learned.shape[1] != held_out.shape[1] or not len(learned):
+        raise ValueError(f"{caller} needs two tables with the same columns and a learned row, got shapes "
+                         f"{learned.shape} and {held_out.shape}")
+    if not (np.all(np.isfinite(learned)) and np.all(np.isfinite(held_out))):
+        raise ValueError(f"{caller} needs finite {what}; the learned or held-out table has NaN or inf")
+    return learned, held_out
+
+
 def within_learned_range(learned: np.ndarray, held_out: np.ndarray) -> np.ndarray:
     """Which held-out rows lie, in every column, within the range (min to max) of ``learned``.
 
@@ -81,12 +93,7 @@ def within_learned_range(learned: np.ndarray, held_out: np.ndarray) -> np.ndarra
     -------
     (M,) bool: True where a model of ``learned`` interpolates, False where it extrapolates.
     """
-    learned, held_out = np.asarray(learned, dtype=float), np.asarray(held_out, dtype=float)
-    if learned.ndim != 2 or held_out.ndim != 2 or learned.shape[1] != held_out.shape[1] or not len(learned):
-        raise ValueError(f"within_learned_range needs two tables with the same columns and a learned row, got "
-                         f"shapes {learned.shape} and {held_out.shape}")
-    if not (np.all(np.isfinite(learned)) and np.all(np.isfinite(held_out))):
-        raise ValueError("within_learned_range needs finite joints; the learned or held-out table has NaN or inf")
+    learned, held_out = _learned_and_held_out("within_learned_range", learned, held_out, "joints")
     return np.all((held_out >= learned.min(axis=0)) & (held_out <= learned.max(axis=0)), axis=1)
 
 
@@ -112,12 +119,7 @@ def play_leverage(learned: np.ndarray, held_out: np.ndarray) -> np.ndarray:
     -------
     (M,) leverages, dimensionless.
     """
-    learned, held_out = np.asarray(learned, dtype=float), np.asarray(held_out, dtype=float)
-    if learned.ndim != 2 or held_out.ndim != 2 or learned.shape[1] != held_out.shape[1] or not len(learned):
-        raise ValueError(f"play_leverage needs two tables with the same columns and a learned row, got shapes "
-                         f"{learned.shape} and {held_out.shape}")
-    if not (np.all(np.isfinite(learned)) and np.all(np.isfinite(held_out))):
-        raise ValueError("play_leverage needs finite features; the learned or held-out table has NaN or inf")
+    learned, held_out = _learned_and_held_out("play_leverage", learned, held_out, "features")
     learned = np.column_stack([learned, np.ones(len(learned))])
     held_out = np.column_stack([held_out, np.ones(len(held_out))])
     # the learned rows' right singular vectors and values give (B^T B)^+ without forming it
