@@ -311,6 +311,14 @@ def test_held_out_rows_are_within_the_learned_range_only_when_every_joint_is():
         within_learned_range(learned, np.array([[1.0, np.nan]]))
 
 
+def _split_part(before, after, learned):
+    """One part of a split's held-out data as the splits study reports it: pooled RMSE (deg) of the
+    starting model, of the named effects and of every calibrator (all ``learned``)."""
+    from studies.discrepancy_dvrk_splits import CALIBRATORS
+
+    return {"before": before, "after": after, "learned": {name: learned for name in CALIBRATORS}}
+
+
 def test_play_leverage_is_the_hat_matrix_diagonal_scaled_to_average_one_and_infinite_off_the_span():
     from studies.discrepancy_dvrk_splits import play_leverage
 
@@ -349,16 +357,13 @@ def test_leverage_quarters_are_equal_shares_by_rank_with_the_unbounded_on_top():
 def test_the_splits_leverage_table_lists_every_quarter_and_the_finding_its_ends():
     from studies.discrepancy_dvrk_splits import CALIBRATORS, finding, tables
 
-    def part(before, after, learned):
-        return {"before": before, "after": after, "learned": {name: learned for name in CALIBRATORS}}
-
-    quarters = [dict(part(8.0, 4.0, 5.0), low=0.5, high=2.0, leverage_median=1.2),
-                dict(part(8.0, 6.0, 5.0), low=2.0, high=4.0, leverage_median=3.0),
-                dict(part(9.0, 8.1, 5.0), low=4.0, high=9.0, leverage_median=6.0),
-                dict(part(10.0, 10.5, 7.0), low=9.0, high=40.0, leverage_median=14.0)]
+    quarters = [dict(_split_part(8.0, 4.0, 5.0), low=0.5, high=2.0, leverage_median=1.2),
+                dict(_split_part(8.0, 6.0, 5.0), low=2.0, high=4.0, leverage_median=3.0),
+                dict(_split_part(9.0, 8.1, 5.0), low=4.0, high=9.0, leverage_median=6.0),
+                dict(_split_part(10.0, 10.5, 7.0), low=9.0, high=40.0, leverage_median=14.0)]
     runs = [{"split": "peg -> random", "named": ["coupled_hysteresis"], "shrink": 0.2, "before": 9.0, "after": 7.0,
              "learned": {name: 6.0 for name in CALIBRATORS}, "inside_share": 1.0,
-             "by_range": {"inside": part(9.0, 7.0, 6.0), "outside": part(float("nan"), float("nan"), float("nan"))},
+             "by_range": {"inside": _split_part(9.0, 7.0, 6.0), "outside": _split_part(*[float("nan")] * 3)},
              "leverage_median": 4.1, "by_leverage": quarters}]
     lines = "\n".join(tables({"runs": runs})).splitlines()
     rows = [line for line in lines if line.startswith("| peg -> random | ") and "quarter" not in line
@@ -374,16 +379,13 @@ def test_the_splits_leverage_table_lists_every_quarter_and_the_finding_its_ends(
 def test_the_splits_table_gives_each_range_its_share_and_shrink_and_skips_an_empty_one():
     from studies.discrepancy_dvrk_splits import CALIBRATORS, finding, tables
 
-    def part(before, after, learned):
-        return {"before": before, "after": after, "learned": {name: learned for name in CALIBRATORS}}
-
     nan = float("nan")
     runs = [{"split": "random -> peg", "named": ["coupled_hysteresis"], "shrink": 0.5, "before": 8.0, "after": 4.0,
              "learned": {name: 5.0 for name in CALIBRATORS}, "inside_share": 1.0,
-             "by_range": {"inside": part(8.0, 4.0, 5.0), "outside": part(nan, nan, nan)}},
+             "by_range": {"inside": _split_part(8.0, 4.0, 5.0), "outside": _split_part(nan, nan, nan)}},
             {"split": "peg -> random", "named": [], "shrink": 0.2, "before": 10.0, "after": 8.0,
              "learned": {name: 7.0 for name in CALIBRATORS}, "inside_share": 0.75,
-             "by_range": {"inside": part(8.0, 6.0, 6.5), "outside": part(12.0, 10.8, 9.0)}}]
+             "by_range": {"inside": _split_part(8.0, 6.0, 6.5), "outside": _split_part(12.0, 10.8, 9.0)}}]
     lines = "\n".join(tables({"runs": runs})).splitlines()
     range_rows = [line for line in lines if "| within |" in line or "| beyond |" in line]
     assert range_rows == ["| random -> peg | within | 100.0 | - | 50.0 | 8.000 | 4.000 | 5.000 |",
