@@ -423,10 +423,12 @@ def test_noise_alone_names_nothing_not_even_the_many_weights_of_coupled_hysteres
     assert score.bic > result.iterations[0].bic_before
 
 
-def test_a_candidate_linear_in_its_parameters_is_the_least_squares_fit_of_its_basis():
+def _coupled_hysteresis_inputs():
+    """The inputs of a coupled-hysteresis fit on the first 2000 samples of :func:`_dragged_record`:
+    time, reported, truth, signals, the candidate, the nominal model, the mask, the nominal model's
+    residual there and the channel weights."""
     from simulation.discrepancy.candidates import library
-    from simulation.discrepancy.fitting import ChannelWeights, fit_linear_candidate, residual
-    from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
+    from simulation.discrepancy.fitting import ChannelWeights, residual
 
     time, reported, truth = _dragged_record()
     signals = MeasuredSignals.generic(time, reported, truth, ("a", "b"), ("rad", "rad"))
@@ -435,7 +437,16 @@ def test_a_candidate_linear_in_its_parameters_is_the_least_squares_fit_of_its_ba
     mask = np.arange(len(time)) < 2000
     start = residual(model, signals, mask=mask)
     weights = ChannelWeights.from_residual(start.joints, None, np.full(2, 1e-6))
-    theta, fitted, chi = fit_linear_candidate(candidate, model, signals, weights, mask=mask)
+    return time, reported, truth, signals, candidate, model, mask, start, weights
+
+
+def test_a_candidate_linear_in_its_parameters_is_the_least_squares_fit_of_its_basis():
+    from simulation.discrepancy.fitting import fit_linear_candidate, residual
+    from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
+
+    time, reported, truth, signals, candidate, model, mask, start, weights = _coupled_hysteresis_inputs()
+    # without a penalty to choose from: plain least squares
+    theta, fitted, chi = fit_linear_candidate(candidate, model, signals, weights, mask=mask, penalties=(0.0,))
     # the same fit built independently: plays of each joint at fractions of its range, one column
     # per (moved joint, moving joint, width), offsets profiled out, each joint over its weight
     first = np.r_[True, np.zeros(len(time) - 1, bool)]
@@ -457,6 +468,92 @@ def test_a_candidate_linear_in_its_parameters_is_the_least_squares_fit_of_its_ba
     for bad in ((0.5, 2.0), (), (0.5, np.nan)):
         with pytest.raises(ValueError, match="play fractions must be a non-empty list of numbers in"):
             generic_candidates(signals, bad)
+
+
+def _ridge_by_normal_equations(design, target, penalty):
+    """The ridge weights of :func:`~simulation.discrepancy.fitting.ridge_penalty`'s convention from the
+    normal equations, independently of its SVD: ``(D^T D + penalty s^2 diag(|d_p|^2)) w = D^T y``,
+    ``s`` the largest singular value of ``D`` with unit-norm columns."""
+    norms = np.linalg.norm(design, axis=0)
+    top = np.linalg.svd(design / norms, compute_uv=False)[0]
+    return np.linalg.solve(design.T @ design + penalty * top ** 2 * np.diag(norms ** 2), design.T @ target)
+
+
+def test_the_ridge_penalty_is_chosen_by_the_prediction_error_of_blocks_held_out_in_time():
+    from simulation.discrepancy.fitting import ridge_penalty
+
+    rng = np.random.default_rng(3)
+    design = rng.normal(size=(300, 2, 4))
+    target = np.einsum("njp,p->nj", design, [1.0, -0.5, 0.25, 2.0]) + 0.3
+    penalties = (0.0, 1e-4, 1e-2, 1.0)
+    # exact data: any penalty only biases the weights
+    chosen, errors = ridge_penalty(design, target, penalties, folds=3)
+    assert chosen == 0.0 and errors[0] < 1e-20 < errors[1] < errors[2] < errors[3]
+    # noisy data: each block in turn predicted by the others' ridge fit, offsets fitted on the others
+    noisy = target + rng.normal(0, 0.5, target.shape)
+    chosen, errors = ridge_penalty(design, noisy, penalties, folds=3)
+    expected = np.zeros(len(penalties))
+    for block in np.array_split(np.arange(300), 3):
+        learn = np.setdiff1d(np.arange(300), block)
+        mean_d, mean_t = design[learn].mean(axis=0), noisy[learn].mean(axis=0)
+        for k, penalty in enumerate(penalties):
+            w = _ridge_by_normal_equations((design[learn] - mean_d).reshape(-1, 4),
+                                           (noisy[learn] - mean_t).reshape(-1), penalty)
+            expected[k] += np.sum((noisy[block] - mean_t - (design[block] - mean_d) @ w) ** 2)
+    np.testing.assert_allclose(errors, expected, rtol=1e-9)
+    assert chosen == penalties[int(np.argmin(expected))]
+    # few samples of a target the features do not explain: the fit only follows the noise, so the
+    # largest penalty predicts best (5.6 % less error than none here, 6 % to 18 % on five other draws)
+    chosen, errors = ridge_penalty(rng.normal(size=(30, 2, 4)), rng.normal(size=(30, 2)), penalties, folds=3)
+    assert chosen == 1.0 and errors[-1] < 0.97 * errors[0], errors
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d, t: (d[..., 0], t), r"needs an \(N, J, P\) design and an \(N, J\) target"),
+    (lambda d, t: (d, t[:-1]), r"needs an \(N, J, P\) design and an \(N, J\) target"),
+    (lambda d, t: (d, np.where(np.arange(t.size).reshape(t.shape) == 5, np.nan, t)), "hold NaN or inf"),
+])
+def test_the_ridge_penalty_refuses_mismatched_or_non_finite_tables(change, message):
+    from simulation.discrepancy.fitting import ridge_penalty
+
+    design, target = np.ones((20, 2, 3)), np.ones((20, 2))
+    with pytest.raises(ValueError, match=message):
+        ridge_penalty(*change(design, target))
+
+
+@pytest.mark.parametrize("penalties, folds, message", [
+    ((), 5, "non-empty list of non-negative numbers"),
+    ((0.0, -1e-3), 5, "non-empty list of non-negative numbers"),
+    ((0.0, np.nan), 5, "non-empty list of non-negative numbers"),
+    ((0.0,), 1, "at least 2 folds and a sample per fold, got 1 folds"),
+    ((0.0,), 21, "at least 2 folds and a sample per fold, got 21 folds of 20 samples"),
+    ((0.0,), 2.5, "at least 2 folds"),
+])
+def test_the_ridge_penalty_refuses_bad_penalties_and_folds(penalties, folds, message):
+    from simulation.discrepancy.fitting import ridge_penalty
+
+    with pytest.raises(ValueError, match=message):
+        ridge_penalty(np.ones((20, 2, 3)), np.ones((20, 2)), penalties, folds)
+
+
+def test_a_linear_candidate_is_the_ridge_fit_at_the_penalty_its_blocks_choose():
+    from simulation.discrepancy.fitting import fit_linear_candidate, residual, ridge_penalty
+
+    *_, signals, candidate, model, mask, start, weights = _coupled_hysteresis_inputs()
+    # penalties that matter here: the drag lies between two widths, so neighbouring plays trade off
+    penalties = (0.0, 1e-3, 1e-1)
+    theta, fitted, chi = fit_linear_candidate(candidate, model, signals, weights, mask=mask, penalties=penalties,
+                                              folds=4)
+    scale = weights.joints
+    design = candidate.basis(signals)[mask] / scale[None, :, None]
+    chosen, _ = ridge_penalty(design, start.joints / scale, penalties, folds=4)
+    expected = _ridge_by_normal_equations((design - design.mean(axis=0)).reshape(-1, candidate.n_parameters),
+                                          (start.joints / scale).reshape(-1), chosen)
+    np.testing.assert_allclose(theta, expected, rtol=1e-6, atol=1e-9)
+    assert chi == pytest.approx(residual(fitted, signals, mask=mask).chi_square(weights), rel=1e-12)
+    # the penalised fit explains the fit part less well than plain least squares, never better
+    _, _, plain = fit_linear_candidate(candidate, model, signals, weights, mask=mask, penalties=(0.0,))
+    assert chi >= plain * (1 - 1e-12)
 
 
 def _with_basis(candidate, basis):

@@ -64,8 +64,9 @@ class Candidate:
         Coulomb force is the tension-independent part of what capstan friction adds).
     basis : for an effect whose contribution to the joints is linear in its parameters, the map
         from the whole record's signals to that contribution per unit of each parameter, (N, J, P):
-        the workflow then fits it by bounded linear least squares in closed form
-        (:func:`~simulation.discrepancy.fitting.fit_linear_candidate`) instead of by IPOPT on
+        the workflow then fits it by bounded linear least squares in closed form, with a ridge
+        penalty chosen by cross-validation on the fit part
+        (:func:`~simulation.discrepancy.fitting.fit_linear_candidate`), instead of by IPOPT on
         finite differences. None for the others.
     """
 
@@ -288,7 +289,8 @@ def _coupled_hysteresis(signals: MeasuredSignals, fractions) -> Candidate:
     with their friction whichever way those joints last moved. A weighted sum of play operators of
     each joint's reported motion (:data:`~simulation.discrepancy.generic.HYSTERESIS_WIDTH_FRACTIONS`
     of its range), one weight per (moved joint, moving joint, width); linear in the weights, so fitted
-    in closed form."""
+    in closed form, with a ridge penalty chosen on blocks of the fit part
+    (:func:`~simulation.discrepancy.fitting.fit_linear_candidate`)."""
     j = signals.n_joints
     widths = play_widths(signals, fractions)
     joint = tuple(signals.units)

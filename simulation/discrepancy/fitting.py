@@ -8,7 +8,8 @@ callback whose gradient casadi takes by finite differences (the replay runs oper
 backlash and stick-slip friction sample by sample, which have no symbolic form); a few starting
 points guard against local minima. A candidate whose contribution is linear in its parameters
 (``Candidate.basis``, e.g. a weighted sum of play operators) is fitted in closed form instead, by
-bounded linear least squares.
+bounded linear least squares with a ridge penalty chosen by cross-validation over blocks of the fit
+part in time (:func:`ridge_penalty`).
 """
 
 from __future__ import annotations
@@ -187,12 +188,98 @@ def fit_candidate(candidate: Candidate, model, signals: MeasuredSignals, weights
     return best_theta, candidate.apply(model, best_theta), float(best_value)
 
 
+RIDGE_PENALTIES = (0.0,) + tuple(10.0 ** (k / 2) for k in range(-12, 1))
+"""Ridge penalties :func:`ridge_penalty` chooses from: 0 and 1e-6 to 1 in half decades, as fractions of
+the largest squared singular value of the design with its columns scaled to unit norm (so that the
+choice does not depend on the units of the weights or the length of the record)."""
+
+RIDGE_FOLDS = 5
+"""Consecutive blocks of the fit part in time that :func:`ridge_penalty` holds out one at a time."""
+
+
+def _ridge_weights(design: np.ndarray, target: np.ndarray, penalties) -> np.ndarray:
+    """(len(penalties), P) ridge solutions of ``design @ w ~ target`` for each relative penalty.
+
+    The penalty on weight ``p`` is ``penalty * s_max^2 * |design[:, p]|^2 * w_p^2``: a penalty on the
+    weights of the design with unit-norm columns, relative to its largest squared singular value.
+    """
+    norms = np.linalg.norm(design, axis=0)
+    norms[norms == 0] = 1.0
+    u, singular, vt = np.linalg.svd(design / norms, full_matrices=False)
+    projected = u.T @ target
+    top = singular[0] ** 2 if singular.size else 0.0
+    solutions = []
+    for penalty in penalties:
+        denominator = singular ** 2 + penalty * top
+        gain = np.divide(singular, denominator, out=np.zeros_like(singular), where=denominator > 0)
+        solutions.append((vt.T @ (gain * projected)) / norms)
+    return np.array(solutions)
+
+
+def ridge_penalty(design: np.ndarray, target: np.ndarray, penalties=RIDGE_PENALTIES,
+                  folds: int = RIDGE_FOLDS) -> tuple[float, np.ndarray]:
+    """The ridge penalty of a linear fit that predicts best on samples it was not fitted on.
+
+    The samples (rows, in time order) are cut into ``folds`` consecutive blocks. Each block in turn
+    is predicted by the ridge fit (:data:`RIDGE_PENALTIES` explains the scale of a penalty) of the
+    others, with the constant offsets of every column fitted on the others too, as the workflow
+    carries the fit part's offsets to the parts it scores. Blocks in time, not random samples: a
+    sample's neighbours share its motion, and a model has to predict motion it has not seen. A
+    design whose weights the motion excites in every direction keeps (nearly) zero penalty; one
+    with combinations of its features that some blocks barely move gets a penalty that keeps their
+    weights from extrapolating.
+
+    Parameters
+    ----------
+    design : (N, J, P) what each of ``P`` weights adds to each of ``J`` channels at each of ``N``
+        samples, the channels already divided by their typical sizes.
+    target : (N, J) what the weights should explain, divided alike.
+    penalties : the relative penalties to try (non-negative).
+    folds : the number of blocks (at least 2; every block needs a sample).
+
+    Returns
+    -------
+    The penalty of smallest summed squared prediction error (the smallest such penalty on a tie),
+    and the (len(penalties),) summed squared errors, in the order of ``penalties``.
+    """
+    design, target = np.asarray(design, dtype=float), np.asarray(target, dtype=float)
+    penalties = np.asarray(penalties, dtype=float)
+    if design.ndim != 3 or target.shape != design.shape[:2]:
+        raise ValueError(f"ridge_penalty needs an (N, J, P) design and an (N, J) target, got shapes {design.shape} "
+                         f"and {target.shape}")
+    if not (np.all(np.isfinite(design)) and np.all(np.isfinite(target))):
+        raise ValueError("ridge_penalty needs a finite design and target; they hold NaN or inf")
+    if penalties.ndim != 1 or penalties.size == 0 or not np.all(np.isfinite(penalties) & (penalties >= 0)):
+        raise ValueError(f"ridge penalties must be a non-empty list of non-negative numbers, got {penalties.tolist()}")
+    if int(folds) != folds or folds < 2 or design.shape[0] < folds:
+        raise ValueError(f"ridge_penalty needs at least 2 folds and a sample per fold, got {folds} folds of "
+                         f"{design.shape[0]} samples")
+    n, channels, p = design.shape
+    errors = np.zeros(penalties.size)
+    for block in np.array_split(np.arange(n), int(folds)):
+        learn = np.ones(n, dtype=bool)
+        learn[block] = False
+        design_mean, target_mean = design[learn].mean(axis=0), target[learn].mean(axis=0)
+        weights = _ridge_weights((design[learn] - design_mean).reshape(-1, p),
+                                 (target[learn] - target_mean).reshape(-1), penalties)
+        predicted = np.einsum("njp,kp->knj", design[block] - design_mean, weights)
+        errors += np.sum(np.square(target[block] - target_mean - predicted), axis=(1, 2))
+    order = np.argsort(penalties, kind="stable")
+    best = order[int(np.argmin(errors[order]))]
+    return float(penalties[best]), errors
+
+
 def fit_linear_candidate(candidate: Candidate, model, signals: MeasuredSignals, weights: ChannelWeights, robot=None,
-                         mask: np.ndarray | None = None) -> tuple[np.ndarray, object, float]:
+                         mask: np.ndarray | None = None, penalties=RIDGE_PENALTIES,
+                         folds: int = RIDGE_FOLDS) -> tuple[np.ndarray, object, float]:
     """Parameters of a candidate linear in them (``candidate.basis``) that best explain the residual
     of ``model`` on the ``mask`` samples: bounded linear least squares of the weighted joint residual,
-    with the constant offsets profiled out as in :func:`residual`. Exact, and free of the scaling and
-    step choices of a search; returns what :func:`fit_candidate` returns.
+    with the constant offsets profiled out as in :func:`residual`, and a ridge penalty chosen by
+    :func:`ridge_penalty` over ``penalties`` on ``folds`` blocks of the ``mask`` samples (``(0.0,)``
+    gives plain least squares). Exact, free of the scaling and step choices of a search, and, with
+    many weights, kept from extrapolating along combinations of features the fit part barely moves
+    (the dVRK wrist's plays: fitted on the peg transfer, the random motion reaches combinations it
+    never excited). Returns what :func:`fit_candidate` returns.
     """
     from scipy.optimize import lsq_linear
 
@@ -205,11 +292,20 @@ def fit_linear_candidate(candidate: Candidate, model, signals: MeasuredSignals, 
                          f"{(len(signals), signals.n_joints, candidate.n_parameters)}")
     if mask is not None:
         design = design[np.asarray(mask, dtype=bool)]
-    design = design - design.mean(axis=0)
     scale = np.asarray(weights.joints, dtype=float)
+    scaled_design = design / scale[None, :, None]
+    scaled_target = current.joints / scale
+    penalty, _ = ridge_penalty(scaled_design, scaled_target, penalties, folds)
+    rows = (scaled_design - scaled_design.mean(axis=0)).reshape(-1, candidate.n_parameters)
+    target = scaled_target.reshape(-1)
+    if penalty > 0:
+        norms = np.linalg.norm(rows, axis=0)
+        norms[norms == 0] = 1.0
+        top = np.linalg.norm(rows / norms, ord=2)
+        rows = np.vstack([rows, np.sqrt(penalty) * top * np.diag(norms)])
+        target = np.concatenate([target, np.zeros(candidate.n_parameters)])
     lower, upper, _, _ = candidate.bounds()
-    fit = lsq_linear((design / scale[None, :, None]).reshape(-1, candidate.n_parameters),
-                     (current.joints / scale).reshape(-1), bounds=(lower, upper))
+    fit = lsq_linear(rows, target, bounds=(lower, upper))
     theta = np.clip(fit.x, lower, upper)
     trial = candidate.apply(model, theta)
     return theta, trial, residual(trial, signals, robot, mask=mask).chi_square(weights)
