@@ -211,6 +211,21 @@ def test_an_effect_of_the_starting_structure_cannot_be_hidden(tmp_path, capsys, 
     assert not (tmp_path / "out").exists()
     with pytest.raises(ValueError, match="in the starting structure"):
         run_hidden_effect((name,), duration=DURATION)
+    # one name given as a string is that name, not its letters
+    with pytest.raises(ValueError, match=f"^{name} is in the starting structure"):
+        run_hidden_effect(name, duration=DURATION)
+
+
+def test_hidden_effects_are_one_name_or_a_sequence_of_names():
+    from studies.common.discrepancy_runs import check_hidden
+
+    assert check_hidden("backlash") == ("backlash",)
+    assert check_hidden(["backlash", "payload"]) == ("backlash", "payload")
+    assert check_hidden(()) == ()
+    with pytest.raises(ValueError, match="unknown hidden effect 'hysterisis'"):
+        check_hidden("hysterisis")
+    with pytest.raises(ValueError, match="an effect is hidden twice"):
+        check_hidden(("drift", "drift"))
 
 
 @pytest.mark.xdist_group("discrepancy-backfit")

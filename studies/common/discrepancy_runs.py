@@ -78,8 +78,9 @@ if set(STARTING_STRUCTURE) & set(LIBRARY + UNMODELLED_EFFECTS):
 
 
 def check_hidden(hidden) -> tuple[str, ...]:
-    """``hidden`` as a tuple of effect names, refusing any that cannot be hidden, with the reason."""
-    hidden = tuple(hidden)
+    """``hidden`` (an effect name or a sequence of them) as a tuple of effect names, refusing any that
+    cannot be hidden, with the reason."""
+    hidden = (hidden,) if isinstance(hidden, str) else tuple(hidden)
     for name in hidden:
         if name in STARTING_STRUCTURE:
             raise ValueError(f"{name} is in the starting structure, so hiding it changes nothing in the data "
