@@ -254,7 +254,7 @@ def ridge_penalty(design: np.ndarray, target: np.ndarray, penalties=RIDGE_PENALT
     if int(folds) != folds or folds < 2 or design.shape[0] < folds:
         raise ValueError(f"ridge_penalty needs at least 2 folds and a sample per fold, got {folds} folds of "
                          f"{design.shape[0]} samples")
-    n, channels, p = design.shape
+    n, _, p = design.shape
     errors = np.zeros(penalties.size)
     for block in np.array_split(np.arange(n), int(folds)):
         learn = np.ones(n, dtype=bool)
@@ -276,7 +276,7 @@ def fit_linear_candidate(candidate: Candidate, model, signals: MeasuredSignals, 
     of ``model`` on the ``mask`` samples: bounded linear least squares of the weighted joint residual,
     with the constant offsets profiled out as in :func:`residual`, and a ridge penalty chosen by
     :func:`ridge_penalty` over ``penalties`` on ``folds`` blocks of the ``mask`` samples (``(0.0,)``
-    gives plain least squares). Exact, free of the scaling and step choices of a search, and, with
+    gives plain least squares; the choice ignores the bounds, which hold only a fit that runs away). Exact, free of the scaling and step choices of a search, and, with
     many weights, kept from extrapolating along combinations of features the fit part barely moves
     (the dVRK wrist's plays: fitted on the peg transfer, the random motion reaches combinations it
     never excited). Returns what :func:`fit_candidate` returns.
