@@ -562,6 +562,7 @@ def test_a_linear_candidate_is_the_ridge_fit_at_the_penalty_its_blocks_choose():
     scale = weights.joints
     design = candidate.basis(signals)[mask] / scale[None, :, None]
     chosen, _ = ridge_penalty(design, start.joints / scale, penalties, folds=4)
+    assert chosen > 0  # so that the penalised path is the one checked
     expected = _ridge_by_normal_equations((design - design.mean(axis=0)).reshape(-1, candidate.n_parameters),
                                           (start.joints / scale).reshape(-1), chosen)
     np.testing.assert_allclose(theta, expected, rtol=1e-6, atol=1e-9)
