@@ -401,13 +401,31 @@ def _dragged_record():
     return time, reported, truth + rng.normal(0, 1e-4, truth.shape)
 
 
-def test_a_hysteresis_driven_by_another_joint_is_named_coupled_hysteresis(tmp_path):
+def test_a_hysteresis_driven_by_another_joint_is_named_coupled_hysteresis(tmp_path, monkeypatch):
+    import simulation.discrepancy.workflow as workflow
+    from simulation.discrepancy import fitting
     from simulation.discrepancy.generic import coupled_hysteresis_shares
     from studies.discrepancy import write_report
 
+    linear_fits, searched = [], []
+
+    def count_linear(candidate, *args, **kwargs):
+        linear_fits.append(candidate.name)
+        return fitting.fit_linear_candidate(candidate, *args, **kwargs)
+
+    def count_searched(candidate, *args, **kwargs):
+        searched.append(candidate.name)
+        return fitting.fit_candidate(candidate, *args, **kwargs)
+
+    monkeypatch.setattr(workflow, "fit_linear_candidate", count_linear)
+    monkeypatch.setattr(workflow, "fit_candidate", count_searched)
     time, reported, truth = _dragged_record()
     result, signals, split = run_on_generic(time, reported, truth, ("a", "b"), ("rad", "rad"))
     assert result.named_effects[:1] == ("coupled_hysteresis",), result.named_effects
+    # the screen's closed-form fit is the candidate's fit: once per iteration, never searched again
+    screened = sum(any(s.name == "coupled_hysteresis" for s in it.scores) for it in result.iterations)
+    assert screened >= 1 and linear_fits == ["coupled_hysteresis"] * screened, linear_fits
+    assert "coupled_hysteresis" not in searched
     assert result.shrink >= 0.8, result.shrink
     # the weights of joint a on joint b's plays carry the drag; joint b's own error is noise
     weight = np.array(result.fitted_parameters["coupled_hysteresis"]["weight"]).reshape(2, 2, -1)

@@ -233,7 +233,7 @@ def _screen(candidate: Candidate, model, signals: MeasuredSignals, mask, weights
     """Best weighted residual over a coarse scan of the candidate's parameters, one at a time
     (``passes`` sweeps over them), and where; scanned again below the grid when nothing on it helps.
     A candidate linear in its parameters is fitted outright instead (its closed form costs less than
-    a scan)."""
+    a scan), and that fit is its full fit too."""
     if candidate.basis is not None:
         theta, _, chi = fit_linear_candidate(candidate, model, signals, weights, robot, mask)
         return float(chi), theta
@@ -521,7 +521,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         chi, trial = evaluated[value]
         return chi, np.array([value]), (trial if trial is not None else model)
 
-    def trial_model(candidate, weights, scanned):
+    def trial_model(candidate, weights, scanned, screened_chi):
         nonlocal structure
         if base is not None and candidate.name in base.fittable:
             trial = rebase(model, structure + (candidate.name,), extras_of(model))
@@ -530,8 +530,12 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         if candidate.name in profile_points:
             _, _, trial = profile(candidate, weights)
             return trial, current_values_of(trial, candidate)
-        theta, trial, chi = fit_candidate(candidate, model, signals, weights, robot, mask=split.fit, initial=scanned,
-                                          starts=1, max_iter=settings.fit_iterations)
+        if candidate.basis is not None:
+            # the screen fitted a candidate linear in its weights outright, on these inputs
+            theta, trial, chi = scanned, candidate.apply(model, scanned), screened_chi
+        else:
+            theta, trial, chi = fit_candidate(candidate, model, signals, weights, robot, mask=split.fit,
+                                              initial=scanned, starts=1, max_iter=settings.fit_iterations)
         trial = with_fitted_offsets(trial)
         # the model's friction may have stood in for the missing effect: fit them together
         partners = [c for c in library_by_name.values()
@@ -586,7 +590,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
             if rank >= settings.screen_top:
                 scores.append(CandidateScore(candidate.name, chi, False, {}, np.nan, np.nan))
                 continue
-            trial, theta = trial_model(candidate, weights, scanned)
+            trial, theta = trial_model(candidate, weights, scanned, chi)
             bar.update()
             if trial is None:
                 scores.append(CandidateScore(candidate.name, chi, False, {}, np.nan, np.nan))
