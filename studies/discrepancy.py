@@ -60,6 +60,7 @@ from studies.common.discrepancy_runs import (
     largest_share,
     oracle,
     read_measured,
+    record_length,
     run_ablation,
     run_on_dvrk,
     run_on_raven_dataset,
@@ -789,10 +790,10 @@ def main(argv=None) -> int:
                         help="one confusion matrix from sweeps run apart (their --out folders or confusion.json)")
     parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of generated data")
     parser.add_argument("--seeds", type=positive_int, default=3, help="seeds per effect for --sweep")
-    parser.add_argument("--duration", type=positive_float, default=DEFAULT_RECORD_S,
+    parser.add_argument("--duration", type=record_length, default=DEFAULT_RECORD_S,
                         help="seconds of generated random motion (default: twenty minutes, the paper's random tests "
                              "and the shortest record on which drift at its published size was named; 240 for a "
-                             "quicker look that cannot show drift)")
+                             "quicker look that cannot show drift; at most six hours)")
     parser.add_argument("--size-factor", type=positive_float, default=1.0,
                         help="generate the hidden effect at this multiple of its default size (default 1: the "
                              "size its source gives)")

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from studies.common import reporting
+from studies.common.discrepancy_runs import record_length
 from studies.common.runner import StudyRun, positive_float, positive_int, say, study_parser
 from studies.common.sweeps import run_tasks
 
@@ -147,7 +148,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser = study_parser(STUDY, __doc__)
     parser.add_argument("--effect", default="hysteresis", help="the effect hidden (a library candidate)")
     parser.add_argument("--seeds", type=positive_int, default=5, help="how many seeds, from --seed on")
-    parser.add_argument("--duration", type=positive_float, default=240.0, help="record length (s)")
+    parser.add_argument("--duration", type=record_length, default=240.0, help="record length (s, at most six hours)")
     parser.add_argument("--iterations", type=_budgets, default=(30, 60, 100),
                         help="comma-separated IPOPT iteration budgets of each candidate fit")
     parser.add_argument("--size-factor", type=positive_float, default=1.0, help="multiple of the effect's default size")

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from studies.common.discrepancy_runs import record_length
 from studies.common.runner import non_negative_int, script_parser
 
 STUDY = "discrepancy_fit_at_truth"
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser = script_parser(STUDY, __doc__)
     parser.add_argument("--hidden-effect", required=True, choices=pinnable(), help="the effect hidden and pinned")
     parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the generated data (>= 0)")
-    parser.add_argument("--duration", type=float, default=240.0, help="record length (s)")
+    parser.add_argument("--duration", type=record_length, default=240.0, help="record length (s, at most six hours)")
     parser.add_argument("--out", type=Path, default=None, help="write the two summaries to this JSON file")
     args = parser.parse_args(argv)
     if not args.duration > 0:

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from studies.common import reporting
+from studies.common.discrepancy_runs import record_length
 from studies.common.runner import StudyRun, positive_float, positive_int, say, study_parser
 from studies.common.sweeps import run_tasks
 
@@ -160,7 +161,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser = study_parser(STUDY, __doc__)
     parser.set_defaults(seed=8)
     parser.add_argument("--seeds", type=positive_int, default=1, help="how many seeds, from --seed on")
-    parser.add_argument("--duration", type=positive_float, default=240.0, help="record length (s)")
+    parser.add_argument("--duration", type=record_length, default=240.0, help="record length (s, at most six hours)")
     parser.add_argument("--sizes", type=_sizes, default=(1.0, 1e-6),
                         help="comma-separated multiples of the registration error's default size")
     with StudyRun(parser, argv, configure) as study:

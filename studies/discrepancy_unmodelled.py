@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from studies.common import reporting
+from studies.common.discrepancy_runs import record_length
 from studies.common.runner import StudyRun, positive_float, positive_int, say, study_parser
 from studies.common.sweeps import run_tasks
 
@@ -155,7 +156,7 @@ def configure(args) -> dict:
 def main(argv: list[str] | None = None) -> dict:
     parser = study_parser(STUDY, __doc__)
     parser.add_argument("--seeds", type=positive_int, default=5, help="how many seeds, from --seed on")
-    parser.add_argument("--duration", type=positive_float, default=240.0, help="record length (s)")
+    parser.add_argument("--duration", type=record_length, default=240.0, help="record length (s, at most six hours)")
     parser.add_argument("--amplitude", type=positive_float, default=0.01,
                         help="amplitude of each harmonic of the encoder error (deg)")
     with StudyRun(parser, argv, configure) as study:

@@ -226,6 +226,21 @@ def test_hidden_effects_are_one_name_or_a_sequence_of_names():
         check_hidden("hysterisis")
     with pytest.raises(ValueError, match="an effect is hidden twice"):
         check_hidden(("drift", "drift"))
+    # "none" alone is nothing hidden, as on the command line; beside an effect it is a mistake
+    assert check_hidden("none") == () and check_hidden(["none"]) == ()
+    with pytest.raises(ValueError, match=r"^'none' \(nothing hidden\) cannot be combined with other effects"):
+        check_hidden(("none", "backlash"))
+
+
+@pytest.mark.parametrize("duration, message", [
+    (6 * 3600.0 + 1.0, "at most 21600 s"), (np.inf, "at most 21600 s"), (-1.0, "above 0 s"),
+    ("a minute", "must be a number of seconds")])
+def test_a_record_length_above_six_hours_or_not_a_length_is_refused_before_generating(duration, message):
+    from studies.common.discrepancy_runs import generate_measured
+
+    # refused at once: a day of motion at the servo rate would fill the memory before failing
+    with pytest.raises(ValueError, match=message):
+        generate_measured(("backlash",), duration=duration)
 
 
 @pytest.mark.xdist_group("discrepancy-backfit")
@@ -723,6 +738,15 @@ def test_the_command_line_refuses_an_unknown_effect_and_a_missing_path(tmp_path,
     with pytest.raises(SystemExit) as exit_info:
         main(["--measured", str(tmp_path / "absent"), "--out", str(tmp_path)])
     assert exit_info.value.code == 2 and "no file or folder" in capsys.readouterr().err
+    for bad in (["--hidden-effect", "backlash", "--duration", "1e9"], ["--sweep", "--duration", "nan"],
+                ["--hidden-effect", "none,backlash"]):
+        with pytest.raises(SystemExit) as exit_info:
+            main(bad + ["--out", str(tmp_path / "out")])
+        error = capsys.readouterr().err.strip()
+        assert exit_info.value.code == 2 and len(error.splitlines()) == 1, error
+        assert ("argument --duration: the record length must be" in error
+                or "'none' (nothing hidden) cannot be combined" in error), error
+    assert not (tmp_path / "out").exists()
 
 
 def test_a_sweep_run_in_a_log_is_one_line_with_what_was_hidden_named_and_closed():
