@@ -79,6 +79,9 @@ def test_finding_needs_idle_below_unloaded_below_loaded():
 def test_session_config_rejects_nonsense():
     with pytest.raises(ValueError, match="hours"):
         OperationSessionConfig(hours=0.0)
+    with pytest.raises(ValueError, match="at most 24"):
+        OperationSessionConfig(hours=24.5)
+    assert OperationSessionConfig(hours=24.0).hours == 24.0
     with pytest.raises(ValueError, match="eval_stride"):
         OperationSessionConfig(eval_stride=0)
     with pytest.raises(ValueError, match="kinds"):

@@ -112,6 +112,12 @@ def training_duration(samples: Samples) -> float:
     return samples.duration
 
 
+MAX_OPERATION_HOURS = 24.0
+"""Longest operation the studies simulate after a calibration (h): one day, four times the paper's
+six hours. The simulation's time grows with the hours (its memory with the 30 Hz log), so a
+mistyped length is refused rather than run for days."""
+
+
 @dataclass(frozen=True)
 class OperationSessionConfig:
     """A calibration followed by hours of operation (the long-operation, input-feature and
@@ -130,6 +136,8 @@ class OperationSessionConfig:
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be positive, got {value}")
+        if self.hours > MAX_OPERATION_HOURS:
+            raise ValueError(f"hours must be at most {MAX_OPERATION_HOURS:g} (one day of operation), got {self.hours:g}")
         if int(self.eval_stride) != self.eval_stride or self.eval_stride < 1:
             raise ValueError(f"eval_stride must be a positive integer, got {self.eval_stride}")
 
