@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from studies.common.runner import positive_int
+
 ROOT = Path(__file__).resolve().parents[1]
 
 WORKLOADS = {
@@ -70,10 +72,8 @@ def cpu_seconds(code: str) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=2, help="new processes per workload")
+    parser.add_argument("--repeats", type=positive_int, default=2, help="new processes per workload")
     args = parser.parse_args()
-    if args.repeats < 1:
-        parser.error("--repeats must be at least 1")
     for name, code in WORKLOADS.items():
         seconds = sorted(cpu_seconds(code) for _ in range(args.repeats))
         print(f"{name}: {float(np.median(seconds)):.1f} s CPU (runs: {', '.join(f'{s:.1f}' for s in seconds)})")

@@ -42,6 +42,7 @@ from studies.common.discrepancy_runs import (
     read_measured,
     write_measured,
 )
+from studies.common.runner import non_negative_int, positive_float, positive_int
 
 CANDIDATES = ("hysteresis", "backlash", "capstan_friction", "motor_friction", "payload", "transmission_error")
 
@@ -74,13 +75,11 @@ def series_inputs(model, signals):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=120.0, help="length of the generated record (s)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seconds", type=positive_float, default=120.0, help="length of the generated record (s)")
+    parser.add_argument("--seed", type=non_negative_int, default=0)
     parser.add_argument("--hidden", default="hysteresis", choices=HIDDEN_CHOICES, help="effect hidden in the data")
-    parser.add_argument("--evaluations", type=int, default=300, help="evaluations timed per candidate and way")
+    parser.add_argument("--evaluations", type=positive_int, default=300, help="evaluations timed per candidate and way")
     args = parser.parse_args()
-    if args.seconds <= 0 or args.evaluations < 1:
-        parser.error("--seconds must be positive and --evaluations at least 1")
 
     hidden = () if args.hidden == "none" else (args.hidden,)
     with tempfile.TemporaryDirectory() as folder:

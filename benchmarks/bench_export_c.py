@@ -37,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import estimators as E  # noqa: E402
 from bench_training import RAW_COLUMNS, synthetic_calibration_data  # noqa: E402
 from estimators.export_c import export_c  # noqa: E402
+from studies.common.runner import positive_int  # noqa: E402
 
 GOAL_US = {"DNN 16-100-100-3 (sigmoid)": 1.0}
 FLAG_SETS = {
@@ -123,8 +124,8 @@ def time_per_call_us(compiler, flags, c_path, folder, inputs_file, rows, calls, 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--calls", type=int, default=200_000, help="calls per timing run")
-    parser.add_argument("--repeat", type=int, default=7, help="timing runs")
+    parser.add_argument("--calls", type=positive_int, default=200_000, help="calls per timing run")
+    parser.add_argument("--repeat", type=positive_int, default=7, help="timing runs")
     parser.add_argument("--cc", default=os.environ.get("CC") or shutil.which("cc"),
                         help="C compiler (default: $CC or cc)")
     args = parser.parse_args()

@@ -26,6 +26,7 @@ from simulation.engine.scenarios import powered_on, record_random_test
 from simulation.identification import FITTABLE_EFFECTS, PoorlyIdentifiedWarning, identify
 from simulation.identification import compiled
 from simulation.model.parameters import RavenParameters
+from studies.common.runner import non_negative_int, positive_float, positive_int
 
 
 def lag_by_lag_scores(jac: np.ndarray, residuals: np.ndarray, lags: int) -> np.ndarray:
@@ -80,12 +81,10 @@ def timed_fits(recording, repeats: int) -> tuple[list[float], object]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=120.0, help="length of the random-motion record (s)")
-    parser.add_argument("--repeats", type=int, default=3, help="identifications per variant")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seconds", type=positive_float, default=120.0, help="length of the random-motion record (s)")
+    parser.add_argument("--repeats", type=positive_int, default=3, help="identifications per variant")
+    parser.add_argument("--seed", type=non_negative_int, default=0)
     args = parser.parse_args()
-    if args.seconds <= 0 or args.repeats < 1:
-        parser.error("--seconds must be positive and --repeats at least 1")
 
     robot = powered_on(RavenParameters(), seed=args.seed)
     recording = record_random_test(robot, args.seconds, seed=args.seed)

@@ -27,6 +27,7 @@ from simulation.identification import fit as identification
 from simulation.identification.layout import build_layout
 from simulation.identification.samples import prepare_samples
 from studies.common.discrepancy_runs import STARTING_STRUCTURE, generate_measured, uninformed_start
+from studies.common.runner import non_negative_int, positive_float
 
 
 def trust_region_passes(samples, base, effects, max_evaluations: int = 200):
@@ -59,11 +60,9 @@ def trust_region_passes(samples, base, effects, max_evaluations: int = 200):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=60.0, help="record length (s)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the generated record")
+    parser.add_argument("--seconds", type=positive_float, default=60.0, help="record length (s)")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the generated record")
     args = parser.parse_args()
-    if not args.seconds > 0:
-        parser.error("--seconds must be positive")
     warnings.simplefilter("ignore")
     dataset, _ = generate_measured((), args.seed, args.seconds)
     split = Split.by_time(MeasuredSignals.from_dataset(dataset), (0.5, 0.25, 0.25))

@@ -23,6 +23,7 @@ from threadpoolctl import threadpool_limits
 
 import estimators as E
 from bench_training import RAW_COLUMNS, synthetic_calibration_data
+from studies.common.runner import positive_int
 
 SERVO_PERIOD_US = 1000.0  # RAVEN-II servo loop: 1 kHz
 PAPER_US = {"linear": 380.0, "DNN 16-100-100-3": 61_000.0}
@@ -38,8 +39,8 @@ def latency_us(function, sample: np.ndarray, number: int, repeat: int) -> tuple[
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--number", type=int, default=20_000, help="calls per timing run")
-    parser.add_argument("--repeat", type=int, default=7, help="timing runs")
+    parser.add_argument("--number", type=positive_int, default=20_000, help="calls per timing run")
+    parser.add_argument("--repeat", type=positive_int, default=7, help="timing runs")
     parser.add_argument("--all", action="store_true", help="also time the other calibrators")
     args = parser.parse_args()
 

@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit
 
 from kinematics import RavenII, gravity_torques_fast, mass_matrix_fast
+from studies.common.runner import positive_int
 
 FK_100K_TARGET_S = 0.5
 
@@ -55,7 +56,7 @@ def _row(label: str, seconds: float, per: int = 1) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--arm", choices=("left", "right"), default="left")
-    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--repeat", type=positive_int, default=5)
     args = parser.parse_args()
 
     robot = RavenII(args.arm)

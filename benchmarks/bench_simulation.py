@@ -18,6 +18,7 @@ import time
 from simulation.engine.robot import VirtualRaven
 from simulation.engine.scenarios import long_operation, powered_on
 from simulation.trajectories import random_sinusoidal
+from studies.common.runner import positive_float, positive_int
 
 
 def peak_memory_mb() -> float:
@@ -27,9 +28,9 @@ def peak_memory_mb() -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--minutes", type=float, default=10.0, help="simulated minutes of random motion")
-    parser.add_argument("--hours", type=float, default=0.0, help="also run this many hours of operation")
-    parser.add_argument("--repeat", type=int, default=3, help="timed repetitions (best is reported)")
+    parser.add_argument("--minutes", type=positive_float, default=10.0, help="simulated minutes of random motion")
+    parser.add_argument("--hours", type=positive_float, default=0.0, help="also run this many hours of operation")
+    parser.add_argument("--repeat", type=positive_int, default=3, help="timed repetitions (best is reported)")
     args = parser.parse_args()
 
     start = time.perf_counter()

@@ -23,6 +23,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import estimators as E
+from studies.common.runner import positive_int
 
 N_SAMPLES = 30_000
 RAW_COLUMNS = (0, 1, 2)
@@ -106,14 +107,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--all", action="store_true",
                         help="also time the polynomial, two-phase and window calibrators")
-    parser.add_argument("--threads", type=int, nargs="*", default=[1, 2],
+    parser.add_argument("--threads", type=positive_int, nargs="*", default=[1, 2],
                         help="thread counts (torch and BLAS) to time with")
-    parser.add_argument("--repeat", type=int, default=5, help="runs of the fast calibrators")
-    parser.add_argument("--dnn-repeat", type=int, default=1,
+    parser.add_argument("--repeat", type=positive_int, default=5, help="runs of the fast calibrators")
+    parser.add_argument("--dnn-repeat", type=positive_int, default=1,
                         help="runs of the DNN (the median is reported)")
     args = parser.parse_args()
-    if args.repeat < 1 or args.dnn_repeat < 1 or any(t < 1 for t in args.threads):
-        parser.error("--repeat, --dnn-repeat and --threads must be at least 1")
 
     X, y = synthetic_calibration_data()
     # Import torch and warm its kernels outside the timed runs.

@@ -37,6 +37,7 @@ from simulation.identification import MotorLog, PoorlyIdentifiedWarning, identif
 from simulation.model.constants import REPORT_SCALE
 from simulation.recordings.recording import recording_to_dataset
 from simulation.engine.scenarios import long_operation, paper_protocol, powered_on, record_calibration, record_random_test
+from studies.common.runner import non_negative_int, positive_float, positive_int
 
 
 def rmse(error: np.ndarray) -> np.ndarray:
@@ -172,13 +173,13 @@ def long_run(args) -> None:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--seconds", type=float, default=600.0, help="length of the filtered test log (s)")
+    parser.add_argument("--seed", type=non_negative_int, default=0)
+    parser.add_argument("--seconds", type=positive_float, default=600.0, help="length of the filtered test log (s)")
     parser.add_argument("--protocol", action="store_true", help="accuracy on the paper's protocol")
-    parser.add_argument("--rates", type=float, nargs="*", help="accuracy against the log rate (Hz)")
-    parser.add_argument("--rate-test-seconds", type=float, default=300.0)
-    parser.add_argument("--tuning-steps", type=int, default=3600, help="log steps the per-rate noise tuning filters")
-    parser.add_argument("--hours", type=float, help="length of the loaded robustness run (h)")
+    parser.add_argument("--rates", type=positive_float, nargs="*", help="accuracy against the log rate (Hz)")
+    parser.add_argument("--rate-test-seconds", type=positive_float, default=300.0)
+    parser.add_argument("--tuning-steps", type=positive_int, default=3600, help="log steps the per-rate noise tuning filters")
+    parser.add_argument("--hours", type=positive_float, help="length of the loaded robustness run (h)")
     args = parser.parse_args(argv)
     if args.protocol:
         protocol(args)

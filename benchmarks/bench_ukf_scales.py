@@ -20,6 +20,7 @@ import numpy as np
 from studies import compare_sota
 from studies.common.data_sources import simulated_comparison
 from studies.common.methods import BASE_METHODS, MethodSettings
+from studies.common.runner import positive_int
 
 REDUCED = MethodSettings(dnn_seeds=1, dnn_epochs=60, lstm_epochs=2, forest_trees=5, two_phase_max_samples=800,
                          gpr_subset=300, gpr_hyper_subset=100, lstm_max_samples=800, ukf_tuning="none")
@@ -36,10 +37,8 @@ def cpu_seconds(data, scales: str) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=2, help="timed runs per setting")
+    parser.add_argument("--repeats", type=positive_int, default=2, help="timed runs per setting")
     args = parser.parse_args()
-    if args.repeats < 1:
-        parser.error("--repeats must be at least 1")
     data = simulated_comparison(seed=4, sparsities=(1 / 3,), test_duration=60.0)
     cpu_seconds(data, "nominal")
     medians = {}
