@@ -143,20 +143,35 @@ def _shrink_percent(part: dict) -> float:
     return 100 * (1 - part["after"] / part["before"]) if part["before"] > 0 else float("nan")
 
 
-def analyse(split: str) -> dict:
-    """The workflow and the calibrators on one split."""
-    from estimators import FixedOffsetCalibrator, LinearCalibrator, WindowLinearCalibrator
-    from simulation.discrepancy.generic import play_features, play_widths
+def run_split(split: str, play_fractions=None):
+    """The blind workflow on the wrist joints of one split (a name of :data:`SPLITS`): the learning
+    part first, the held-out part appended after it in time; ``play_fractions`` as in
+    :func:`~studies.common.discrepancy_runs.run_on_generic`. "random -> peg" is the analysis of
+    ``studies/discrepancy.py --measured``.
+
+    Returns the workflow's (result, signals, parts) and the two parts' (time, X, y)."""
     from simulation.recordings.dvrk import JOINT_NAMES, PRISMATIC_JOINTS
     from studies.common.discrepancy_runs import run_on_generic
 
+    if split not in SPLITS:
+        raise ValueError(f"unknown split {split!r}; choose from {', '.join(SPLITS)}")
     (t0, x0, y0), (t1, x1, y1) = _parts(split)
     joints = list(WRIST)
     time = np.concatenate([t0, t1 - t1[0] + t0[-1] + 1.0])
     result, signals, parts = run_on_generic(
         time, np.concatenate([x0, x1])[:, joints], np.concatenate([y0, y1])[:, joints],
         tuple(JOINT_NAMES[j] for j in joints), tuple("m" if PRISMATIC_JOINTS[j] else "rad" for j in joints),
-        held_out_start=len(t0))
+        held_out_start=len(t0), play_fractions=play_fractions)
+    return (result, signals, parts), ((t0, x0, y0), (t1, x1, y1))
+
+
+def analyse(split: str) -> dict:
+    """The workflow and the calibrators on one split."""
+    from estimators import FixedOffsetCalibrator, LinearCalibrator, WindowLinearCalibrator
+    from simulation.discrepancy.generic import play_features, play_widths
+
+    (result, signals, parts), ((t0, x0, y0), (t1, x1, y1)) = run_split(split)
+    joints = list(WRIST)
     raw = list(range(6))
     makers = {"fixed offset": lambda: FixedOffsetCalibrator(raw_columns=raw),
               "linear": lambda: LinearCalibrator(raw_columns=raw),

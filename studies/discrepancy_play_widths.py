@@ -7,10 +7,12 @@ choice, so this study runs the whole analysis (``python studies/discrepancy.py -
 last third, report on the peg transfer) once per grid and lists, for each, what was named, the
 pooled gap on the validation part (random motion) after the named effects, and the held-out
 shrink (peg transfer). The library's grid is the one with the smallest validation gap: chosen on
-the random motion, never on the peg transfer.
+the random motion, never on the peg transfer. ``--split`` runs the grids on another split of
+``studies/discrepancy_dvrk_splits.py`` (e.g. "peg -> random": fit and choose on the peg transfer,
+report on the random motion).
 
-Run: ``python studies/discrepancy_play_widths.py [--grids 2-7,3-8,1-8,2-5,3-6,4-9]`` (each grid is
-``a-b``: half-widths 1/2^a to 1/2^b of each joint's range).
+Run: ``python studies/discrepancy_play_widths.py [--grids 2-7,3-8,1-8,2-5,3-6,4-9] [--split "random -> peg"]``
+(each grid is ``a-b``: half-widths 1/2^a to 1/2^b of each joint's range).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import numpy as np
 from studies.common import reporting
 from studies.common.runner import StudyRun, say, study_parser
 from studies.common.sweeps import run_tasks
+from studies.discrepancy_dvrk_splits import SPLITS, run_split
 
 STUDY = "discrepancy_play_widths"
 DEFAULT_GRIDS = ((2, 7), (3, 8), (1, 8), (2, 5), (3, 6), (4, 9))
@@ -30,13 +33,17 @@ DEFAULT_GRIDS = ((2, 7), (3, 8), (1, 8), (2, 5), (3, 6), (4, 9))
 
 @dataclass(frozen=True)
 class GridConfig:
-    """Grids of play half-widths, each ``(a, b)``: fractions 1/2^a down to 1/2^b of a joint's range."""
+    """Grids of play half-widths, each ``(a, b)``: fractions 1/2^a down to 1/2^b of a joint's range,
+    run on one ``split`` (a name of :data:`~studies.discrepancy_dvrk_splits.SPLITS`)."""
 
     grids: tuple[tuple[int, int], ...] = DEFAULT_GRIDS
+    split: str = SPLITS[0]
 
     def __post_init__(self) -> None:
         if not self.grids or any(not (1 <= a <= b <= 16) for a, b in self.grids):
             raise ValueError(f"each grid needs 1 <= a <= b <= 16, got {self.grids}")
+        if self.split not in SPLITS:
+            raise ValueError(f"unknown split {self.split!r}; choose from {', '.join(SPLITS)}")
 
 
 def _grids(text: str) -> tuple[tuple[int, int], ...]:
@@ -54,23 +61,36 @@ def fractions_of(grid: tuple[int, int]) -> tuple[float, ...]:
     return tuple(2.0 ** -k for k in range(grid[0], grid[1] + 1))
 
 
-def analyse(grid: tuple[int, int]) -> dict:
-    """The dVRK wrist analysis with one grid of play half-widths."""
+def _pooled_deg(per_joint_rad) -> float:
+    return float(np.sqrt(np.mean(np.square(np.degrees(per_joint_rad)))))
+
+
+def analyse(grid: tuple[int, int], split: str = SPLITS[0]) -> dict:
+    """The dVRK wrist analysis of one split with one grid of play half-widths."""
     from simulation.discrepancy.fitting import residual
     from simulation.discrepancy.signals import pooled_rmse
-    from studies.common.discrepancy_runs import run_on_dvrk
 
-    result, signals, split = run_on_dvrk(play_fractions=fractions_of(grid))
-    validation = residual(result.model_after, signals, offsets=np.zeros(signals.n_joints), mask=split.validation)
+    (result, signals, parts), _ = run_split(split, play_fractions=fractions_of(grid))
+    validation = residual(result.model_after, signals, offsets=np.zeros(signals.n_joints), mask=parts.validation)
     return {"grid": list(grid), "named": list(result.named_effects),
             "validation_gap": pooled_rmse(validation.joints, result.units), "shrink": result.shrink,
-            "held_out_gap": float(np.sqrt(np.mean(np.square(np.degrees(result.gap_after)))))}
+            "held_out_gap": _pooled_deg(result.gap_after), "held_out_gap_before": _pooled_deg(result.gap_before)}
 
 
 def run(config: GridConfig, n_jobs: int = -1, backend: str = "loky", scheduler=None, progress: bool = True) -> dict:
-    runs = run_tasks(analyse, [(grid,) for grid in config.grids], n_jobs=n_jobs, backend=backend,
+    runs = run_tasks(analyse, [(grid, config.split) for grid in config.grids], n_jobs=n_jobs, backend=backend,
                      scheduler=scheduler, progress=progress, description="grids")
-    return {"runs": runs}
+    return {"split": config.split, "runs": runs}
+
+
+def _parts_named(split: str) -> tuple[str, str]:
+    """What the validation and held-out parts of ``split`` are, in words."""
+    names = {"random": "random motion", "peg": "peg transfer"}
+    learning, held_out = split.split(" -> ")
+    if "half" in split:
+        record = names[learning.split(",")[0]]
+        return f"{record}, 1st half", f"{record}, 2nd half"
+    return names[learning], names[held_out]
 
 
 def _label(grid) -> str:
@@ -78,34 +98,40 @@ def _label(grid) -> str:
 
 
 def tables(results: dict) -> list[str]:
+    split = results.get("split", SPLITS[0])
+    learning, held_out = _parts_named(split)
     rows = [[_label(r["grid"]), ", ".join(r["named"]) or "none", f"{r['validation_gap']:.3f}",
              f"{r['held_out_gap']:.3f}", f"{100 * r['shrink']:.1f}"] for r in results["runs"]]
-    return ["## The dVRK wrist analysis per grid of play half-widths", "",
+    return [f"## The dVRK wrist analysis per grid of play half-widths (fit -> held out: {split})", "",
             reporting.markdown_table(["half-widths (of each joint's range)", "named",
-                                      "validation gap after (deg, random motion)", "held-out gap after (deg, peg transfer)",
+                                      f"validation gap after (deg, {learning})", f"held-out gap after (deg, {held_out})",
                                       "held-out shrink %"], rows), "",
-            "Gaps: pooled RMSE over the three wrist joints after the named effects; the starting model's "
-            "held-out gap is 7.314 deg."]
+            "Gaps: pooled RMSE over the three wrist joints after the named effects (fitted on the first two "
+            "thirds of the learning part, chosen on its last third); the starting model's held-out gap is "
+            f"{results['runs'][0]['held_out_gap_before']:.3f} deg."]
 
 
 def finding(results: dict) -> str:
     best = min(results["runs"], key=lambda r: r["validation_gap"])
     shrinks = [100 * r["shrink"] for r in results["runs"]]
-    return (f"The grid with the smallest validation gap is {_label(best['grid'])} ({best['validation_gap']:.3f} deg); "
+    return (f"Fit -> held out: {results.get('split', SPLITS[0])}. "
+            f"The grid with the smallest validation gap is {_label(best['grid'])} ({best['validation_gap']:.3f} deg); "
             f"with it {100 * best['shrink']:.1f} % of the held-out gap closes. Over the {len(shrinks)} grids the "
             f"held-out shrink ranges from {min(shrinks):.1f} % to {max(shrinks):.1f} %.")
 
 
 def configure(args) -> GridConfig:
-    return GridConfig(grids=args.grids[:2] if args.quick else args.grids)
+    return GridConfig(grids=args.grids[:2] if args.quick else args.grids, split=args.split)
 
 
 def main(argv: list[str] | None = None) -> dict:
     parser = study_parser(STUDY, __doc__)
     parser.add_argument("--grids", type=_grids, default=DEFAULT_GRIDS,
                         help="comma-separated grids a-b: play half-widths 1/2^a to 1/2^b of each joint's range")
+    parser.add_argument("--split", choices=SPLITS, default=SPLITS[0],
+                        help="fit -> held-out part, as in studies/discrepancy_dvrk_splits.py")
     with StudyRun(parser, argv, configure) as study:
-        say(f"dVRK wrist analysis with {len(study.config.grids)} grids of play half-widths")
+        say(f"dVRK wrist analysis ({study.config.split}) with {len(study.config.grids)} grids of play half-widths")
         results = run(study.config, **study.parallel)
         return study.conclude(results, title="Discrepancy workflow: the play widths of coupled hysteresis",
                               finding=finding, tables=tables, figures=lambda results, out: [])

@@ -145,6 +145,7 @@ IN_PROCESS_MISTAKES = [
     ("discrepancy_homing", ["--sizes", "1,nan"], "--sizes"),
     ("discrepancy_play_widths", ["--grids", "3-1"], "each grid needs 1 <= a <= b <= 16"),
     ("discrepancy_play_widths", ["--grids", "2-x"], "'2-x' is not a grid a-b"),
+    ("discrepancy_play_widths", ["--split", "peg -> peg"], "argument --split: invalid choice: 'peg -> peg'"),
     ("discrepancy_fit_at_truth", ["--hidden-effect", "payload"], "invalid choice: 'payload'"),
     ("discrepancy_fit_at_truth", ["--hidden-effect", "motor_friction"], "invalid choice: 'motor_friction'"),
     ("discrepancy_fit_at_truth", ["--hidden-effect", "backlash", "--duration", "0"],

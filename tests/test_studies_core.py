@@ -394,3 +394,28 @@ def test_the_splits_table_gives_each_range_its_share_and_shrink_and_skips_an_emp
     text = finding({"runs": runs})
     assert "25 % of the held-out samples beyond the learned wrist ranges: 25.0 % closed within them, 10.0 % beyond" \
         in text and text.count("beyond the learned") == 1
+
+
+@pytest.mark.parametrize("split, learning, held_out", [
+    ("random -> peg", "random motion", "peg transfer"), ("peg -> random", "peg transfer", "random motion"),
+    ("peg, 1st half -> 2nd half", "peg transfer, 1st half", "peg transfer, 2nd half")])
+def test_the_play_widths_table_names_the_parts_of_its_split(split, learning, held_out):
+    from studies.discrepancy_play_widths import GridConfig, finding, tables
+
+    runs = [{"grid": [1, 8], "named": ["coupled_hysteresis"], "validation_gap": 2.0, "held_out_gap": 5.0,
+             "held_out_gap_before": 8.0, "shrink": 0.375},
+            {"grid": [3, 8], "named": ["coupled_hysteresis"], "validation_gap": 1.5, "held_out_gap": 5.5,
+             "held_out_gap_before": 8.0, "shrink": 0.3125}]
+    text = "\n".join(tables({"split": split, "runs": runs}))
+    assert f"(fit -> held out: {split})" in text
+    assert f"| validation gap after (deg, {learning}) | held-out gap after (deg, {held_out}) |" in text
+    assert "| 1/8 to 1/256 | coupled_hysteresis | 1.500 | 5.500 | 31.2 |" in text
+    assert "the starting model's held-out gap is 8.000 deg" in text
+    # the grid is chosen on the validation part, whatever the held-out part says
+    assert finding({"split": split, "runs": runs}).startswith(
+        f"Fit -> held out: {split}. The grid with the smallest validation gap is 1/8 to 1/256 (1.500 deg)")
+    from studies.discrepancy_dvrk_splits import run_split
+
+    for refuse in (lambda: GridConfig(split="peg -> peg"), lambda: run_split("peg -> peg")):
+        with pytest.raises(ValueError, match="unknown split 'peg -> peg'; choose from random -> peg, "):
+            refuse()
