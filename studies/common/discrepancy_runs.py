@@ -134,7 +134,7 @@ def generate_measured(hidden=(), seed: int = 0, duration: float = 240.0, params:
     from simulation.recordings.recording import Recording, recording_to_dataset
 
     hidden = check_hidden(hidden)
-    check_record_length(duration)
+    duration = check_record_length(duration)
     if not np.isfinite(size_factor) or size_factor <= 0:
         raise ValueError(f"size_factor must be a positive number, got {size_factor}")
     generator = generator_parameters(hidden, params, size_factor)
@@ -296,9 +296,9 @@ most 14 % and 41 % of the held-out gap; named alone on every seed of twenty-minu
 **Ten- and twenty-minute records**)."""
 
 MAX_RECORD_S = 6 * 3600.0
-"""Longest random motion :func:`generate_measured` makes (s): six hours, the longest operation the
-studies simulate. Generating it holds about 4 GB at its peak (3.8 GB and 91 s for six hours with
-nothing hidden), and the memory grows with the length."""
+"""Longest random motion :func:`generate_measured` makes (s): six hours, the paper's longest
+operation (its Fig. 6). Generating it holds about 4 GB at its peak (3.8 GB and 91 s for six hours
+with nothing hidden), and the memory grows with the length."""
 
 
 def check_record_length(duration) -> float:
