@@ -23,15 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from studies.common import reporting
+from simulation.recordings.dvrk import WRIST_JOINTS
+from studies.common.dvrk_splits import SPLITS, run_split
 from studies.common.runner import StudyRun, say, study_parser
 from studies.common.sweeps import run_tasks
 
 STUDY = "discrepancy_dvrk_splits"
-SPLITS = ("random -> peg", "peg -> random", "random, 1st half -> 2nd half", "peg, 1st half -> 2nd half")
-"""Fit part -> held-out part of each split (random: ``random_unfiltered``, peg: ``peg_transfer``)."""
 CALIBRATORS = ("fixed offset", "linear", "window linear, 5 rows")
 QUARTER_NAMES = ("1st (lowest)", "2nd", "3rd", "4th (highest)")
-WRIST = (3, 4, 5)
 LEVERAGE_QUARTERS = 4
 """The held-out part is split into this many equal shares by :func:`play_leverage`."""
 
@@ -46,27 +45,6 @@ class SplitsConfig:
         unknown = [s for s in self.splits if s not in SPLITS]
         if unknown or not self.splits:
             raise ValueError(f"unknown split {unknown[0] if unknown else '(none)'!r}; choose from {', '.join(SPLITS)}")
-
-
-def _parts(split: str, root=None):
-    """(time, X, y) of the part the models learn from and of the held-out part."""
-    from simulation.recordings.dvrk import load_dvrk
-
-    records = {"random": load_dvrk(root, "random_unfiltered"), "peg": load_dvrk(root, "peg_transfer")}
-
-    def whole(r):
-        return r.t, r.X, r.y
-
-    def half(r, second):
-        cut = len(r.t) // 2
-        pick = slice(cut, None) if second else slice(None, cut)
-        return r.t[pick], r.X[pick], r.y[pick]
-
-    source, target = split.split(" -> ")
-    if "half" in split:
-        record = records[source.split(",")[0]]
-        return half(record, False), half(record, True)
-    return whole(records[source]), whole(records[target])
 
 
 def _learned_and_held_out(caller: str, learned, held_out, what: str) -> tuple[np.ndarray, np.ndarray]:
@@ -143,35 +121,13 @@ def _shrink_percent(part: dict) -> float:
     return 100 * (1 - part["after"] / part["before"]) if part["before"] > 0 else float("nan")
 
 
-def run_split(split: str, play_fractions=None):
-    """The blind workflow on the wrist joints of one split (a name of :data:`SPLITS`): the learning
-    part first, the held-out part appended after it in time; ``play_fractions`` as in
-    :func:`~studies.common.discrepancy_runs.run_on_generic`. "random -> peg" is the analysis of
-    ``studies/discrepancy.py --measured``.
-
-    Returns the workflow's (result, signals, parts) and the two parts' (time, X, y)."""
-    from simulation.recordings.dvrk import JOINT_NAMES, PRISMATIC_JOINTS
-    from studies.common.discrepancy_runs import run_on_generic
-
-    if split not in SPLITS:
-        raise ValueError(f"unknown split {split!r}; choose from {', '.join(SPLITS)}")
-    (t0, x0, y0), (t1, x1, y1) = _parts(split)
-    joints = list(WRIST)
-    time = np.concatenate([t0, t1 - t1[0] + t0[-1] + 1.0])
-    result, signals, parts = run_on_generic(
-        time, np.concatenate([x0, x1])[:, joints], np.concatenate([y0, y1])[:, joints],
-        tuple(JOINT_NAMES[j] for j in joints), tuple("m" if PRISMATIC_JOINTS[j] else "rad" for j in joints),
-        held_out_start=len(t0), play_fractions=play_fractions)
-    return (result, signals, parts), ((t0, x0, y0), (t1, x1, y1))
-
-
 def analyse(split: str) -> dict:
     """The workflow and the calibrators on one split."""
     from estimators import FixedOffsetCalibrator, LinearCalibrator, WindowLinearCalibrator
     from simulation.discrepancy.generic import play_features, play_widths
 
     (result, signals, parts), ((t0, x0, y0), (t1, x1, y1)) = run_split(split)
-    joints = list(WRIST)
+    joints = list(WRIST_JOINTS)
     raw = list(range(6))
     makers = {"fixed offset": lambda: FixedOffsetCalibrator(raw_columns=raw),
               "linear": lambda: LinearCalibrator(raw_columns=raw),

@@ -25,7 +25,7 @@ import numpy as np
 from studies.common import reporting
 from studies.common.runner import StudyRun, say, study_parser
 from studies.common.sweeps import run_tasks
-from studies.discrepancy_dvrk_splits import SPLITS, run_split
+from studies.common.dvrk_splits import SPLITS, check_split, run_split
 
 STUDY = "discrepancy_play_widths"
 DEFAULT_GRIDS = ((2, 7), (3, 8), (1, 8), (2, 5), (3, 6), (4, 9))
@@ -34,7 +34,7 @@ DEFAULT_GRIDS = ((2, 7), (3, 8), (1, 8), (2, 5), (3, 6), (4, 9))
 @dataclass(frozen=True)
 class GridConfig:
     """Grids of play half-widths, each ``(a, b)``: fractions 1/2^a down to 1/2^b of a joint's range,
-    run on one ``split`` (a name of :data:`~studies.discrepancy_dvrk_splits.SPLITS`)."""
+    run on one ``split`` (a name of :data:`~studies.common.dvrk_splits.SPLITS`)."""
 
     grids: tuple[tuple[int, int], ...] = DEFAULT_GRIDS
     split: str = SPLITS[0]
@@ -42,8 +42,7 @@ class GridConfig:
     def __post_init__(self) -> None:
         if not self.grids or any(not (1 <= a <= b <= 16) for a, b in self.grids):
             raise ValueError(f"each grid needs 1 <= a <= b <= 16, got {self.grids}")
-        if self.split not in SPLITS:
-            raise ValueError(f"unknown split {self.split!r}; choose from {', '.join(SPLITS)}")
+        check_split(self.split)
 
 
 def _grids(text: str) -> tuple[tuple[int, int], ...]:

@@ -123,3 +123,25 @@ def test_the_discrepancy_workflow_closes_half_the_wrist_gap_and_beats_every_cali
     named = np.sqrt(np.mean(np.square(result.residual_after.joints)))  # rad, all three wrist joints
     for name, prediction in predictions.items():
         assert named < pooled_rmse(truth, prediction, WRIST_JOINTS), name
+
+
+def test_every_split_holds_out_other_samples_than_it_learns_from_and_the_reverse_swaps_them():
+    from studies.common.dvrk_splits import SPLITS, split_parts
+
+    try:
+        root = locate_dvrk_data()
+    except FileNotFoundError as error:
+        pytest.skip(f"real dVRK data not available: {error}")
+    random, peg = (load_dvrk(root, split=name) for name in ("random_unfiltered", "peg_transfer"))
+    parts = {split: split_parts(split, root) for split in SPLITS}
+    (_, x_random, _), (_, x_peg, y_peg) = parts["random -> peg"]
+    assert np.array_equal(x_random, random.X) and np.array_equal(x_peg, peg.X) and np.array_equal(y_peg, peg.y)
+    reverse = parts["peg -> random"]
+    assert all(np.array_equal(a, b) for a, b in zip(reverse[0], parts["random -> peg"][1]))
+    assert all(np.array_equal(a, b) for a, b in zip(reverse[1], parts["random -> peg"][0]))
+    for split, record in (("random, 1st half -> 2nd half", random), ("peg, 1st half -> 2nd half", peg)):
+        (t0, x0, y0), (t1, x1, y1) = parts[split]
+        assert t0[-1] < t1[0] and len(t0) + len(t1) == len(record.t) and abs(len(t0) - len(t1)) <= 1
+        assert np.array_equal(np.concatenate([x0, x1]), record.X) and np.array_equal(np.concatenate([y0, y1]), record.y)
+    with pytest.raises(ValueError, match="unknown split 'random -> random'; choose from random -> peg, "):
+        split_parts("random -> random", root)

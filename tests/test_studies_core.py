@@ -414,7 +414,7 @@ def test_the_play_widths_table_names_the_parts_of_its_split(split, learning, hel
     # the grid is chosen on the validation part, whatever the held-out part says
     assert finding({"split": split, "runs": runs}).startswith(
         f"Fit -> held out: {split}. The grid with the smallest validation gap is 1/8 to 1/256 (1.500 deg)")
-    from studies.discrepancy_dvrk_splits import run_split
+    from studies.common.dvrk_splits import run_split
 
     for refuse in (lambda: GridConfig(split="peg -> peg"), lambda: run_split("peg -> peg")):
         with pytest.raises(ValueError, match="unknown split 'peg -> peg'; choose from random -> peg, "):

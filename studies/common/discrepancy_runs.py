@@ -491,20 +491,11 @@ def run_on_generic(time, reported, truth, joint_names, units, held_out_start: in
 def run_on_dvrk(root=None, joints=(3, 4, 5), settings: WorkflowSettings = WorkflowSettings(), play_fractions=None):
     """The workflow on the dVRK data of Hwang et al. 2020: fit and choose on the random motion,
     report on the peg-transfer recording (appended after it in time); ``play_fractions`` as in
-    :func:`run_on_generic`."""
-    from simulation.recordings.dvrk import JOINT_NAMES, PRISMATIC_JOINTS, load_dvrk
+    :func:`run_on_generic`. The split "random -> peg" of :func:`~studies.common.dvrk_splits.run_split`."""
+    from studies.common.dvrk_splits import ISSUE_SPLIT, run_split
 
-    joints = tuple(joints)
-    train = load_dvrk(root, "random_unfiltered")
-    test = load_dvrk(root, "peg_transfer")
-    t_test = test.t - test.t[0] + train.t[-1] + 1.0
-    time = np.concatenate([train.t, t_test])
-    reported = np.concatenate([train.X[:, :6], test.X[:, :6]])[:, joints]
-    truth = np.concatenate([train.y, test.y])[:, joints]
-    names = tuple(JOINT_NAMES[j] for j in joints)
-    units = tuple("m" if PRISMATIC_JOINTS[j] else "rad" for j in joints)
-    return run_on_generic(time, reported, truth, names, units, held_out_start=len(train.t), settings=settings,
-                          play_fractions=play_fractions)
+    analysis, _ = run_split(ISSUE_SPLIT, root, joints, settings, play_fractions)
+    return analysis
 
 
 DVRK_CALIBRATORS = ("fixed offset", "linear", "window linear, 5 rows", "DNN 100-100")
@@ -520,7 +511,7 @@ def learned_calibrators_on_dvrk(root=None, joints=(3, 4, 5)) -> dict:
     workflow's held-out part). Returns {name: (J,) RMSE}.
     """
     from estimators import DNNCalibrator, FixedOffsetCalibrator, LinearCalibrator, WindowLinearCalibrator
-    from simulation.recordings.dvrk import load_dvrk
+    from studies.common.dvrk_splits import ISSUE_SPLIT, split_parts
 
     raw = list(range(6))
     makers = {
@@ -529,11 +520,10 @@ def learned_calibrators_on_dvrk(root=None, joints=(3, 4, 5)) -> dict:
         "window linear, 5 rows": lambda: WindowLinearCalibrator(raw_columns=raw, window=5),
         "DNN 100-100": lambda: DNNCalibrator(raw_columns=raw, random_state=0, n_threads=1),
     }
-    train = load_dvrk(root, "random_unfiltered")
-    test = load_dvrk(root, "peg_transfer")
+    (_, x_train, y_train), (_, x_test, y_test) = split_parts(ISSUE_SPLIT, root)
     joints = list(joints)
     scores = {}
     for name in DVRK_CALIBRATORS:
-        predicted = makers[name]().fit(train.X, train.y).predict(test.X)
-        scores[name] = np.sqrt(np.mean(np.square(test.y[:, joints] - predicted[:, joints]), axis=0))
+        predicted = makers[name]().fit(x_train, y_train).predict(x_test)
+        scores[name] = np.sqrt(np.mean(np.square(y_test[:, joints] - predicted[:, joints]), axis=0))
     return scores
