@@ -518,6 +518,38 @@ def test_a_candidate_linear_in_its_parameters_is_the_least_squares_fit_of_its_ba
             generic_candidates(signals, bad)
 
 
+def test_play_operators_driven_by_each_joints_own_motion_are_the_least_squares_fit_of_its_own_plays():
+    from simulation.discrepancy.candidates import generic_candidates
+    from simulation.discrepancy.fitting import fit_linear_candidate, residual
+    from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
+
+    time, reported, truth, signals, _, model, mask, start, weights = _coupled_hysteresis_inputs()
+    (own,) = [c for c in generic_candidates(signals, play_drivers="own") if c.name == "coupled_hysteresis"]
+    assert own.n_parameters == 2 * len(HYSTERESIS_WIDTH_FRACTIONS)
+    theta, fitted, chi = fit_linear_candidate(own, model, signals, weights, mask=mask, penalties=(0.0,))
+    # independently: each joint's error on the plays of its own reported motion only
+    first = np.r_[True, np.zeros(len(time) - 1, bool)]
+    error = (truth - reported)[mask]
+    expected, left = [], []
+    for j in range(2):
+        plays = np.column_stack([reported[:, j] - play_series(np.ascontiguousarray(reported[:, j]),
+                                                              np.ptp(reported[:, j]) * f, first)
+                                 for f in HYSTERESIS_WIDTH_FRACTIONS])[mask]
+        plays = plays - plays.mean(axis=0)
+        expected.append(np.linalg.lstsq(plays, error[:, j] - error[:, j].mean(), rcond=None)[0])
+        left.append(error[:, j] - error[:, j].mean() - plays @ expected[j])
+    np.testing.assert_allclose(theta, np.concatenate(expected), rtol=1e-6, atol=1e-9)
+    assert chi == pytest.approx(sum(np.sum((r / w) ** 2) for r, w in zip(left, weights.joints)), rel=1e-9)
+    assert chi == pytest.approx(residual(fitted, signals, mask=mask).chi_square(weights), rel=1e-12)
+    # the dragged joint of this record follows the other joint's motion, which its own plays cannot follow
+    (every,) = [c for c in generic_candidates(signals) if c.name == "coupled_hysteresis"]
+    by_every = fit_linear_candidate(every, model, signals, weights, mask=mask, penalties=(0.0,))[1]
+    dragged = [np.sqrt(np.mean(residual(m, signals, mask=mask).joints[:, 0] ** 2)) for m in (fitted, by_every)]
+    assert dragged[1] < 0.2 * dragged[0], dragged
+    with pytest.raises(ValueError, match="unknown play drivers 'others'; choose from every, own"):
+        generic_candidates(signals, play_drivers="others")
+
+
 def _ridge_by_normal_equations(design, target, penalty):
     """The ridge weights of :func:`~simulation.discrepancy.fitting.ridge_penalty`'s convention from the
     normal equations, independently of its SVD: ``(D^T D + penalty s^2 diag(|d_p|^2)) w = D^T y``,

@@ -419,3 +419,19 @@ def test_the_play_widths_table_names_the_parts_of_its_split(split, learning, hel
     for refuse in (lambda: GridConfig(split="peg -> peg"), lambda: run_split("peg -> peg")):
         with pytest.raises(ValueError, match="unknown split 'peg -> peg'; choose from random -> peg, "):
             refuse()
+
+
+def test_the_play_widths_study_says_when_each_joint_is_driven_by_its_own_motion_and_refuses_other_drivers():
+    from studies.discrepancy_play_widths import GridConfig, finding, main, tables
+
+    runs = [{"grid": [1, 8], "named": ["hysteresis", "coupling"], "validation_gap": 4.8, "held_out_gap": 5.0,
+             "held_out_gap_before": 7.3, "shrink": 0.313}]
+    for drivers, said in (("own", True), ("every", False)):
+        results = {"split": "random -> peg", "drivers": drivers, "runs": runs}
+        text = "\n".join(tables(results)) + finding(results)
+        assert ("each joint driven by its own motion alone" in text) is said
+        assert text.count("each joint driven by its own motion alone") == 2 * said
+    with pytest.raises(ValueError, match="unknown play drivers 'others'; choose from every, own"):
+        GridConfig(drivers="others")
+    with pytest.raises(SystemExit):
+        main(["--drivers", "others", "--out", "unused"])

@@ -251,9 +251,11 @@ def oracle_candidates(signals: MeasuredSignals) -> list[Candidate]:
     ]
 
 
-def generic_candidates(signals: MeasuredSignals, play_fractions=HYSTERESIS_WIDTH_FRACTIONS) -> list[Candidate]:
+def generic_candidates(signals: MeasuredSignals, play_fractions=HYSTERESIS_WIDTH_FRACTIONS,
+                       play_drivers: str = "every") -> list[Candidate]:
     """The library for generic data (joint-space forms of the same effects); ``play_fractions`` are
-    the half-widths of ``coupled_hysteresis``'s play operators as fractions of each joint's range."""
+    the half-widths of ``coupled_hysteresis``'s play operators as fractions of each joint's range, and
+    ``play_drivers`` which joints' motion drives each joint's (:data:`PLAY_DRIVERS`)."""
     j = signals.n_joints
     span = np.max(np.ptp(signals.reported, axis=0))
     joint = tuple(signals.units)
@@ -279,29 +281,46 @@ def generic_candidates(signals: MeasuredSignals, play_fractions=HYSTERESIS_WIDTH
                                                               tuple(f"{joint[r]} s/{joint[c]}" for r in range(j)
                                                                     for c in range(j) if r != c)),),
                   _generic("coupled_viscous_friction"), _any),
-        _coupled_hysteresis(signals, play_fractions),
+        _coupled_hysteresis(signals, play_fractions, play_drivers),
     ]
 
 
-def _coupled_hysteresis(signals: MeasuredSignals, fractions) -> Candidate:
+PLAY_DRIVERS = ("every", "own")
+"""Which joints' motion drives each joint's ``coupled_hysteresis``: every joint's (the library's form)
+or its own alone (one weight per joint and width, a Prandtl-Ishlinskii hysteresis per joint)."""
+
+
+def _coupled_hysteresis(signals: MeasuredSignals, fractions, drivers: str = "every") -> Candidate:
     """Hysteresis of each joint driven by every joint's motion: a joint whose cables run over the
     pulleys of other joints (the wrist pitch and the two jaw cables of a da Vinci instrument) drags
     with their friction whichever way those joints last moved. A weighted sum of play operators of
     each joint's reported motion (:data:`~simulation.discrepancy.generic.HYSTERESIS_WIDTH_FRACTIONS`
     of its range), one weight per (moved joint, moving joint, width); linear in the weights, so fitted
     in closed form, with a ridge penalty chosen on blocks of the fit part
-    (:func:`~simulation.discrepancy.fitting.fit_linear_candidate`)."""
+    (:func:`~simulation.discrepancy.fitting.fit_linear_candidate`). With ``drivers="own"`` each
+    joint is driven by its own motion alone: the weights of (moved joint, its own motion, width)."""
+    if drivers not in PLAY_DRIVERS:
+        raise ValueError(f"unknown play drivers {drivers!r}; choose from {', '.join(PLAY_DRIVERS)}")
     j = signals.n_joints
     widths = play_widths(signals, fractions)
+    n_widths = widths.shape[1]
     joint = tuple(signals.units)
-    units = tuple(f"{joint[r]}/{joint[c]}" for r in range(j) for c in range(j) for _ in range(widths.shape[1]))
+    pairs = [(r, c) for r in range(j) for c in range(j) if drivers == "every" or r == c]
+    units = tuple(f"{joint[r]}/{joint[c]}" for r, c in pairs for _ in range(n_widths))
+    # the columns of coupled_hysteresis_basis (moved joint, moving joint, width) these weights are
+    columns = np.array([(r * j + c) * n_widths + w for r, c in pairs for w in range(n_widths)])
+
+    def every_weight(weight):
+        full = np.zeros(j * j * n_widths)
+        full[columns] = weight
+        return full
 
     def build(model, values):
-        return model.with_effect("coupled_hysteresis", {"weight": values["weight"], "widths": widths})
+        return model.with_effect("coupled_hysteresis", {"weight": every_weight(values["weight"]), "widths": widths})
 
     return Candidate("coupled_hysteresis",
-                     (ParameterBlock("weight", j * j * widths.shape[1], -10.0, 10.0, 0.1, 0.0, units),),
-                     build, _any, basis=lambda s: coupled_hysteresis_basis(s, widths))
+                     (ParameterBlock("weight", len(columns), -10.0, 10.0, 0.1, 0.0, units),),
+                     build, _any, basis=lambda s: coupled_hysteresis_basis(s, widths)[:, :, columns])
 
 
 def library(signals: MeasuredSignals) -> list[Candidate]:
@@ -326,5 +345,5 @@ LIBRARY_NAMES = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis
 """Effect names the workflow can name. The simulator has more (``capstan_runout``), which the
 library deliberately lacks: a residual they cause is reported as unexplained."""
 
-__all__ = ["CONTROLLER_CANDIDATES", "Candidate", "LIBRARY_NAMES", "NominalModel", "ParameterBlock", "RAVEN_LIBRARY",
-           "library", "oracle_candidates"]
+__all__ = ["CONTROLLER_CANDIDATES", "Candidate", "LIBRARY_NAMES", "NominalModel", "PLAY_DRIVERS", "ParameterBlock",
+           "RAVEN_LIBRARY", "library", "oracle_candidates"]

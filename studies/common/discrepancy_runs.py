@@ -463,13 +463,15 @@ def true_values(generator: RavenParameters, name: str, payload_kg: float = 0.0) 
 
 
 def run_on_generic(time, reported, truth, joint_names, units, held_out_start: int | None = None,
-                   settings: WorkflowSettings = WorkflowSettings(), play_fractions=None):
+                   settings: WorkflowSettings = WorkflowSettings(), play_fractions=None, play_drivers: str = "every"):
     """The workflow on data known only by reported and measured joints (nominal model: equal).
 
     With ``held_out_start``, the samples from that index on (e.g. a second recording appended in
     time) are the held-out part and the rest is split 2:1 into fit and validation.
     ``play_fractions`` replaces the default half-widths of ``coupled_hysteresis``
-    (:data:`~simulation.discrepancy.generic.HYSTERESIS_WIDTH_FRACTIONS`).
+    (:data:`~simulation.discrepancy.generic.HYSTERESIS_WIDTH_FRACTIONS`) and ``play_drivers`` which
+    joints' motion drives each joint's (:data:`~simulation.discrepancy.candidates.PLAY_DRIVERS`;
+    every joint's by default).
     """
     signals = MeasuredSignals.generic(time, reported, truth, joint_names, units)
     if held_out_start is None:
@@ -481,10 +483,12 @@ def run_on_generic(time, reported, truth, joint_names, units, held_out_start: in
         split = Split(fit=index < cut, validation=first & (index >= cut), held_out=~first)
     model = NominalModel(offsets=np.zeros(signals.n_joints))
     candidates = None
-    if play_fractions is not None:
+    if play_fractions is not None or play_drivers != "every":
         from simulation.discrepancy.candidates import generic_candidates
+        from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
 
-        candidates = generic_candidates(signals, play_fractions)
+        fractions = HYSTERESIS_WIDTH_FRACTIONS if play_fractions is None else play_fractions
+        candidates = generic_candidates(signals, fractions, play_drivers)
     return run_workflow(model, signals, split, settings, candidates=candidates), signals, split
 
 

@@ -49,12 +49,13 @@ def split_parts(split: str, root=None):
 
 
 def run_split(split: str, root=None, joints=tuple(WRIST_JOINTS), settings: WorkflowSettings = WorkflowSettings(),
-              play_fractions=None):
+              play_fractions=None, play_drivers: str = "every"):
     """The blind workflow on ``joints`` (0-based) of one split (a name of :data:`SPLITS`).
 
     The held-out part is appended after the learning part in time, one second after its last
     sample, and is the workflow's held-out part; the learning part holds its fit and validation
-    parts. ``play_fractions`` as in :func:`~studies.common.discrepancy_runs.run_on_generic`.
+    parts. ``play_fractions`` and ``play_drivers`` as in
+    :func:`~studies.common.discrepancy_runs.run_on_generic`.
 
     Returns the workflow's (result, signals, parts) and the split's two parts (time, X, y).
     """
@@ -67,5 +68,6 @@ def run_split(split: str, root=None, joints=tuple(WRIST_JOINTS), settings: Workf
     analysis = run_on_generic(
         time, np.concatenate([x0, x1])[:, joints], np.concatenate([y0, y1])[:, joints],
         tuple(JOINT_NAMES[j] for j in joints), tuple("m" if PRISMATIC_JOINTS[j] else "rad" for j in joints),
-        held_out_start=len(t0), settings=settings, play_fractions=play_fractions)
+        held_out_start=len(t0), settings=settings, play_fractions=play_fractions,
+        play_drivers=play_drivers)
     return analysis, ((t0, x0, y0), (t1, x1, y1))
