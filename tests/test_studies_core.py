@@ -425,12 +425,14 @@ def test_the_play_widths_study_says_when_each_joint_is_driven_by_its_own_motion_
     from studies.discrepancy_play_widths import GridConfig, finding, main, tables
 
     runs = [{"grid": [1, 8], "named": ["hysteresis", "coupling"], "validation_gap": 4.8, "held_out_gap": 5.0,
-             "held_out_gap_before": 7.3, "shrink": 0.313}]
+             "held_out_gap_before": 7.3, "shrink": 0.313,
+             "held_out_gap_alone": {"hysteresis": 5.5, "coupling": 7.25}}]
     for drivers, said in (("own", True), ("every", False)):
         results = {"split": "random -> peg", "drivers": drivers, "runs": runs}
         text = "\n".join(tables(results)) + finding(results)
         assert ("each joint driven by its own motion alone" in text) is said
         assert text.count("each joint driven by its own motion alone") == 2 * said
+        assert "| 1/2 to 1/256 | hysteresis, coupling | 4.800 | 5.000 | 31.3 | hysteresis 5.500, coupling 7.250 |" in text
     with pytest.raises(ValueError, match="unknown play drivers 'others'; choose from every, own"):
         GridConfig(drivers="others")
     with pytest.raises(SystemExit):
