@@ -145,3 +145,8 @@ def test_every_split_holds_out_other_samples_than_it_learns_from_and_the_reverse
         assert np.array_equal(np.concatenate([x0, x1]), record.X) and np.array_equal(np.concatenate([y0, y1]), record.y)
     with pytest.raises(ValueError, match="unknown split 'random -> random'; choose from random -> peg, "):
         split_parts("random -> random", root)
+    from studies.common.dvrk_splits import run_split
+
+    for joints in ((6,), (3, 3), (), (-1, 4), (3.0,)):
+        with pytest.raises(ValueError, match=r"joints must be distinct joint indices 0-5 of the dVRK arm, got "):
+            run_split("random -> peg", root, joints)

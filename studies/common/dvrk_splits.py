@@ -62,8 +62,11 @@ def run_split(split: str, root=None, joints=tuple(WRIST_JOINTS), settings: Workf
     from simulation.recordings.dvrk import JOINT_NAMES, PRISMATIC_JOINTS
     from studies.common.discrepancy_runs import run_on_generic
 
-    (t0, x0, y0), (t1, x1, y1) = split_parts(split, root)
     joints = list(joints)
+    if not joints or len(set(joints)) != len(joints) or not all(isinstance(j, (int, np.integer)) and 0 <= j < 6
+                                                                for j in joints):
+        raise ValueError(f"joints must be distinct joint indices 0-5 of the dVRK arm, got {tuple(joints)}")
+    (t0, x0, y0), (t1, x1, y1) = split_parts(split, root)
     time = np.concatenate([t0, t1 - t1[0] + t0[-1] + 1.0])
     analysis = run_on_generic(
         time, np.concatenate([x0, x1])[:, joints], np.concatenate([y0, y1])[:, joints],
