@@ -7,6 +7,7 @@
   the calibration methods compared, their training over seeds, their scores in the paper's units;
 - :mod:`~studies.common.sweeps`: parallel sweeps (joblib, on this machine or a cluster);
 - :mod:`~studies.common.discrepancy_runs`: runs of the model-discrepancy workflow;
+- :mod:`~studies.common.dvrk_splits`: the dVRK recordings split into a learned and a held-out part;
 - :mod:`~studies.common.reporting`, :mod:`~studies.common.plots`,
   :mod:`~studies.common.paper_numbers`: reports, figures and the paper's published numbers.
 """
