@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from studies.common import reporting
 from simulation.recordings.dvrk import WRIST_JOINTS
+from studies.common import reporting
 from studies.common.dvrk_splits import SPLITS, run_split
 from studies.common.runner import StudyRun, say, study_parser
 from studies.common.sweeps import run_tasks

@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simulation.discrepancy.candidates import PLAY_DRIVERS
 from studies.common import reporting
+from studies.common.dvrk_splits import SPLITS, check_split, run_split
 from studies.common.runner import StudyRun, say, study_parser
 from studies.common.sweeps import run_tasks
-from simulation.discrepancy.candidates import PLAY_DRIVERS
-from studies.common.dvrk_splits import SPLITS, check_split, run_split
 
 STUDY = "discrepancy_play_widths"
 DEFAULT_GRIDS = ((2, 7), (3, 8), (1, 8), (2, 5), (3, 6), (4, 9))
