@@ -146,13 +146,17 @@ REPORT_UNITS = {"rad": ("deg", 180.0 / np.pi), "m": ("mm", 1000.0), "rad/h": ("d
 def _value_labels(size: int, joint_names, block: str = "") -> list[str]:
     """What each value of a parameter block refers to: a joint, a pair of joints, or a homing (second,
     third ... of the record: registration offsets relative to the first) and a joint, or a pair of joints
-    and a play operator's half-width (the weights of ``coupled_hysteresis``)."""
+    (or a joint and its own motion) and a play operator's half-width (the weights of
+    ``coupled_hysteresis``, in either of its forms)."""
     from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
 
     j = len(joint_names)
     if block == "weight" and size == j * j * len(HYSTERESIS_WIDTH_FRACTIONS):
         return [f"{joint_names[r]} from {joint_names[c]}, play of 1/{round(1 / f)} of its range"
                 for r in range(j) for c in range(j) for f in HYSTERESIS_WIDTH_FRACTIONS]
+    if block == "weight" and size == j * len(HYSTERESIS_WIDTH_FRACTIONS):
+        return [f"{joint_names[r]} from its own motion, play of 1/{round(1 / f)} of its range"
+                for r in range(j) for f in HYSTERESIS_WIDTH_FRACTIONS]
     if block == "offset" and size % j == 0:
         return [f"homing {k + 2} of the record, {joint_names[i]}" for k in range(size // j) for i in range(j)]
     if size == j:
