@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simulation.discrepancy.candidates import PLAY_DRIVERS
+from simulation.discrepancy.candidates import PLAY_DRIVERS, check_play_drivers
 from studies.common import reporting
 from studies.common.dvrk_splits import SPLITS, check_split, run_split
 from studies.common.runner import StudyRun, say, study_parser
@@ -48,8 +48,7 @@ class GridConfig:
         if not self.grids or any(not (1 <= a <= b <= 16) for a, b in self.grids):
             raise ValueError(f"each grid needs 1 <= a <= b <= 16, got {self.grids}")
         check_split(self.split)
-        if self.drivers not in PLAY_DRIVERS:
-            raise ValueError(f"unknown play drivers {self.drivers!r}; choose from {', '.join(PLAY_DRIVERS)}")
+        check_play_drivers(self.drivers)
 
 
 def _grids(text: str) -> tuple[tuple[int, int], ...]:

@@ -290,6 +290,13 @@ PLAY_DRIVERS = ("every", "own")
 or its own alone (one weight per joint and width, a Prandtl-Ishlinskii hysteresis per joint)."""
 
 
+def check_play_drivers(drivers: str) -> str:
+    """``drivers`` if it names one of :data:`PLAY_DRIVERS`; otherwise a one-line ValueError naming the choices."""
+    if drivers not in PLAY_DRIVERS:
+        raise ValueError(f"unknown play drivers {drivers!r}; choose from {', '.join(PLAY_DRIVERS)}")
+    return drivers
+
+
 def _coupled_hysteresis(signals: MeasuredSignals, fractions, drivers: str = "every") -> Candidate:
     """Hysteresis of each joint driven by every joint's motion: a joint whose cables run over the
     pulleys of other joints (the wrist pitch and the two jaw cables of a da Vinci instrument) drags
@@ -299,8 +306,7 @@ def _coupled_hysteresis(signals: MeasuredSignals, fractions, drivers: str = "eve
     in closed form, with a ridge penalty chosen on blocks of the fit part
     (:func:`~simulation.discrepancy.fitting.fit_linear_candidate`). With ``drivers="own"`` each
     joint is driven by its own motion alone: the weights of (moved joint, its own motion, width)."""
-    if drivers not in PLAY_DRIVERS:
-        raise ValueError(f"unknown play drivers {drivers!r}; choose from {', '.join(PLAY_DRIVERS)}")
+    check_play_drivers(drivers)
     j = signals.n_joints
     widths = play_widths(signals, fractions)
     n_widths = widths.shape[1]
@@ -346,4 +352,4 @@ LIBRARY_NAMES = ("backlash", "coulomb_friction", "viscous_friction", "hysteresis
 library deliberately lacks: a residual they cause is reported as unexplained."""
 
 __all__ = ["CONTROLLER_CANDIDATES", "Candidate", "LIBRARY_NAMES", "NominalModel", "PLAY_DRIVERS", "ParameterBlock",
-           "RAVEN_LIBRARY", "library", "oracle_candidates"]
+           "RAVEN_LIBRARY", "check_play_drivers", "library", "oracle_candidates"]

@@ -481,14 +481,12 @@ def run_on_generic(time, reported, truth, joint_names, units, held_out_start: in
         first = index < held_out_start
         cut = int(held_out_start * 2 / 3)
         split = Split(fit=index < cut, validation=first & (index >= cut), held_out=~first)
-    model = NominalModel(offsets=np.zeros(signals.n_joints))
-    candidates = None
-    if play_fractions is not None or play_drivers != "every":
-        from simulation.discrepancy.candidates import generic_candidates
-        from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
+    from simulation.discrepancy.candidates import generic_candidates
+    from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
 
-        fractions = HYSTERESIS_WIDTH_FRACTIONS if play_fractions is None else play_fractions
-        candidates = generic_candidates(signals, fractions, play_drivers)
+    model = NominalModel(offsets=np.zeros(signals.n_joints))
+    fractions = HYSTERESIS_WIDTH_FRACTIONS if play_fractions is None else play_fractions
+    candidates = generic_candidates(signals, fractions, play_drivers)
     return run_workflow(model, signals, split, settings, candidates=candidates), signals, split
 
 
