@@ -61,7 +61,8 @@ def pinnable() -> tuple[str, ...]:
     """The library's effects the workflow fits by its candidate search: not the per-homing offsets
     (drawn anew at each homing), the payload (fitted by a profile over re-identifications), the
     controller's gravity-model error (fitted by the controller replay) or an effect the
-    identification fits together with the starting structure (motor friction)."""
+    identification fits together with the starting structure (motor friction, the transmission
+    error)."""
     from simulation.identification import IDENTIFIABLE_EFFECTS
     from studies.common.discrepancy_runs import LIBRARY, PER_HOMING_EFFECTS
 

@@ -14,7 +14,7 @@ from kinematics import RavenII
 from simulation.discrepancy import MeasuredSignals
 from simulation.discrepancy.candidates import RAVEN_LIBRARY, library
 from simulation.discrepancy.replay import MOTOR_STICTION_SPEED, RavenModel
-from simulation.model.effects import Hysteresis, MotorFriction
+from simulation.model.effects import Hysteresis, MotorFriction, TransmissionError
 from studies.common.discrepancy_runs import generate_measured, generator_parameters
 
 
@@ -47,6 +47,31 @@ def test_an_undeclared_payload_stretches_the_cables_and_loads_the_motors(record)
     moving = np.abs(gravity_per_kg) > 0.05
     assert np.all(np.sign(tension_change[moving]) == np.sign(gravity_per_kg[moving]))
     assert np.max(np.abs(heavier.joints - without.joints)) > 1e-4
+
+
+def test_a_transmission_error_scales_each_motors_column_of_the_coupling_as_the_simulator_does(record):
+    # with a rigid cable the joints are the cable ends and the motors carry the links' tension:
+    # both go through the simulator's own coupling of the arm (the engine's table), whose column j
+    # is the nominal one over 1 + ratio_error[j]
+    from simulation.engine.tables import build_tables
+
+    signals, model, robot = record
+    error = TransmissionError(ratio_error=[0.004, -0.003, 0.005])
+    rigid = RavenModel(model.params.without("cable_stretch").with_effect(error), np.array([0.01, -0.02, 0.003]))
+    state = rigid.replay(signals, robot)
+    coupling = build_tables(rigid.params, robot).coupling_true
+    np.testing.assert_allclose(state.joints - rigid.offsets, signals.drive @ coupling.T, rtol=0, atol=1e-12)
+    c = rigid.params.constants
+    ratio, gear = c.transmission_ratio[:3], c.gearbox[:3]
+    motor_side = (state.tension @ coupling + c.motor_inertia[:3] * ratio ** 2 * signals.drive_acceleration
+                  + c.motor_damping[:3] * ratio ** 2 * signals.drive_velocity)
+    np.testing.assert_allclose(state.torque, motor_side * gear / ratio, rtol=1e-12, atol=1e-12)
+    # the shoulder motor's error moves the elbow too: the elbow's cable end follows the shoulder motor
+    shoulder_only = RavenModel(rigid.params.with_effect(TransmissionError(ratio_error=[0.004, 0.0, 0.0])),
+                               rigid.offsets).replay(signals, robot)
+    nominal = RavenModel(rigid.params.without("transmission_error"), rigid.offsets).replay(signals, robot)
+    moved = np.max(np.abs(shoulder_only.joints - nominal.joints), axis=0)
+    assert moved[0] > 1e-5 and moved[1] > 1e-5, moved
 
 
 def test_replayed_motor_friction_opposes_the_motor_motion_with_its_datasheet_torque(record):

@@ -20,7 +20,7 @@ from simulation.identification import (
     nominal_parameters,
     prepare_samples,
 )
-from simulation.model.effects import CableStretch
+from simulation.model.effects import CableStretch, TransmissionError
 from simulation.model.parameters import RavenParameters
 from simulation.recordings.recording import Recording
 from simulation.engine.robot import VirtualRaven
@@ -129,6 +129,33 @@ def test_motor_friction_is_identified_from_the_torques_and_found_absent_where_it
     none = identify(clean, effects=MODEL + ("motor_friction",), base=recovery_start(params)).parameters
     assert np.all(none.effect("motor_friction").coulomb[:3] < 0.1 * true.coulomb[:3])
     assert np.all(none.effect("motor_friction").gearbox_loss[:3] < 0.1 * true.gearbox_loss[:3])
+
+
+@pytest.fixture(scope="module")
+def simulated_transmission_error():
+    """The brisk session on a robot whose transmission ratios are off, by a different amount and
+    sign on each motor."""
+    params = RavenParameters().only(*MODEL).with_effect(TransmissionError(ratio_error=[0.003, -0.002, 0.004]))
+    return params, brisk_session(params, 2, (7, 8))
+
+
+@pytest.mark.filterwarnings("ignore::simulation.identification.PoorlyIdentifiedWarning")
+def test_transmission_ratio_errors_are_identified_motor_by_motor_and_found_absent_where_they_are(
+        simulated, simulated_transmission_error):
+    params, recording = simulated_transmission_error
+    result = identify(recording, effects=MODEL + ("transmission_error",), base=recovery_start(params))
+    fitted, true = result.parameters.effect("transmission_error"), params.effect("transmission_error")
+    print(f"\nratio errors fitted: {fitted.ratio_error}; simulated: {true.ratio_error}")
+    # the search starts from the nominal ratios (zero error), never from the class default
+    assert fitted.enabled
+    np.testing.assert_allclose(fitted.ratio_error, true.ratio_error, rtol=0.05)
+    # without it the cable law and the coupling bend to mimic it, and the joints fit worse
+    without = identify(recording, effects=MODEL, base=recovery_start(params))
+    assert np.all(result.report.joint_rmse < 0.3 * without.report.joint_rmse)
+    # data with the nominal ratios: the fit finds (nearly) no error
+    _, clean = simulated
+    none = identify(clean, effects=MODEL + ("transmission_error",), base=recovery_start(params)).parameters
+    assert np.all(np.abs(none.effect("transmission_error").ratio_error) < 0.1 * np.abs(true.ratio_error))
 
 
 def test_an_effect_the_identification_cannot_fit_is_named_in_the_error(simulated):

@@ -230,9 +230,10 @@ def test_bad_use_raises_clear_errors(session):
         UKFJointEstimator(tuning="none").fit(np.zeros((10, 3)))
     with pytest.raises(ValueError, match="cable_stretch off"):
         CableModel.from_parameters(RavenParameters().without("cable_stretch"), np.zeros(3))
-    # the identification fits motor friction, but the filter's process model has none to use
-    with pytest.raises(ValueError, match="process model has no motor_friction"):
-        UKFJointEstimator(effects=FITTABLE_EFFECTS + ("motor_friction",), tuning="none").fit(calibration)
+    # the identification fits motor friction and ratio errors, but the filter's process model has neither
+    for effect in ("motor_friction", "transmission_error"):
+        with pytest.raises(ValueError, match=f"process model has no {effect}"):
+            UKFJointEstimator(effects=FITTABLE_EFFECTS + (effect,), tuning="none").fit(calibration)
     with pytest.raises(ValueError, match="positive"):
         ProcessNoise(motor=[1.0, 0.0, 1.0], joint=[1.0, 1.0, 1.0])
     with warnings.catch_warnings():

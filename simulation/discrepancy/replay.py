@@ -8,7 +8,8 @@ inertia), the cable law turns the loads into stretch, and the prediction is
     joint = play(A u) - creep - stretch(T) + offset,
     motor torque = (A^T T + J_u u'' + b_u u') * gearbox / transmission ratio,
 
-evaluated quasi-statically sample by sample (the cable's own vibration is far above the 30 Hz
+with ``A`` the cable coupling (each motor's column over ``1 + ratio_error`` with a transmission
+error, as in the simulator's engine), evaluated quasi-statically sample by sample (the cable's own vibration is far above the 30 Hz
 log) with the model layer's laws (:mod:`simulation.model.laws`: cable tension and its inverse,
 tangent stiffness, gravity load, play, Bouc-Wen hysteresis). For generic data the nominal model
 is ``joint = reported + offset``. The residual the workflow studies is measured minus predicted,
@@ -352,6 +353,10 @@ class RavenModel:
         coupling = p.effect("coupling")
         delta = coupling.delta if coupling.enabled else np.zeros(3)
         a = coupling_matrix(*(np.asarray(c.cable_coupling) + delta))
+        if p.is_enabled("transmission_error"):
+            # the true ratios are the nominal ones times (1 + ratio_error): each motor moves its cables,
+            # and feels their tension, 1 / (1 + ratio_error) as much as the nominal coupling says
+            a = a / (1.0 + p.effect("transmission_error").ratio_error)[None, :]
         u = signals.drive
         cable = u @ a.T
         if p.is_enabled("capstan_runout"):
@@ -416,12 +421,7 @@ class RavenModel:
             tension = load + force * np.sign(velocity)
             tension = tension + capstan * np.abs(tension) * np.sign(velocity)
 
-        if p.is_enabled("transmission_error"):
-            # the joint moves 1 / (1 + ratio_error) of what the nominal ratios say; the registration
-            # pose's share is a constant, profiled out with the offsets
-            joints = link / (1.0 + p.effect("transmission_error").ratio_error) + self.offsets
-        else:
-            joints = link + self.offsets
+        joints = link + self.offsets
         if self.homing_offsets:
             for count, extra in self.homing_offsets.items():
                 joints[signals.homing == count] += extra

@@ -7,8 +7,9 @@ an :class:`IdentificationResult`: a fitted :class:`~simulation.model.parameters.
 ``VirtualRaven(result.parameters)`` is the fitted model, and the UKF takes its cable model from
 it), the offsets, estimates with standard errors and confidence intervals, and a fit report. Asked
 to (``effects=FITTABLE_EFFECTS + ("motor_friction",)``, :data:`IDENTIFIABLE_EFFECTS`), it also fits
-the motors' and gearboxes' friction, which only the motor torques see; the UKF's model class
-(:data:`FITTABLE_EFFECTS`, the default) has none.
+the motors' and gearboxes' friction, which only the motor torques see, and the transmission ratios'
+errors (``"transmission_error"``); the UKF's model class (:data:`FITTABLE_EFFECTS`, the default)
+has neither.
 
 The stiffness law is the simulator's ``T = k x0 sinh(s / x0)`` (see
 :class:`~simulation.model.effects.CableStretch`): a hardening spring whose inverse is closed-form, so the

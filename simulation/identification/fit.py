@@ -54,6 +54,7 @@ from simulation.identification.layout import (
     OFFSET,
     OFFSETS,
     QUANTITIES,
+    RATIO_ERROR,
     SLOT_NAMES,
     STIFFNESS,
     VISCOUS,
@@ -142,6 +143,8 @@ def _initial_offsets(samples: IdentificationSamples, params: RavenParameters, ef
     c = params.constants
     delta = params.effect("coupling").delta if "coupling" in effects else np.zeros(3)
     a = coupling_matrix(*(np.asarray(c.cable_coupling) + delta))
+    if "transmission_error" in effects and params.is_enabled("transmission_error"):
+        a = a / (1.0 + params.effect("transmission_error").ratio_error)[None, :]
     predicted = samples.motor @ a.T
     if "cable_stretch" in effects:
         law = params.effect("cable_stretch")
@@ -402,6 +405,7 @@ def _fitted_parameters(base: RavenParameters, effects, slots: np.ndarray) -> Rav
         # the tool DOFs' friction is not in a positioning joints' log: zero, not the class defaults
         "motor_friction": dict(coulomb=np.r_[np.maximum(slots[MOTOR_COULOMB], 0.0), np.zeros(4)],
                                gearbox_loss=np.r_[np.maximum(slots[GEARBOX_LOSS], 0.0), np.zeros(4)]),
+        "transmission_error": dict(ratio_error=slots[RATIO_ERROR]),
     }
     for name in effects:
         fitted = fitted.with_effect(fitted.effect(name).replace(**updates[name]))

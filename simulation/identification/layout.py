@@ -1,8 +1,9 @@
 """Which cable-model parameters a fit estimates, and how the solver sees them.
 
-The identified model has ten per-joint quantities (30 slots): cable stiffness, hardening
+The identified model has eleven per-joint quantities (33 slots): cable stiffness, hardening
 stretch and damping, Coulomb and viscous friction, gravity load scale, the three coupling
-deviations, the session's joint offsets, and the motors' dry friction and gearbox loss. A slot
+deviations, the session's joint offsets, the motors' dry friction and gearbox loss, and the
+transmission ratios' relative errors. A slot
 is *free* (estimated), *fixed* (held at the base parameter set's value) or *off* (its effect is
 not part of the model: zero, or a rigid cable).
 Free parameters reach the solver as dimensionless unknowns ``xi`` of order one: positive scale
@@ -22,10 +23,13 @@ from simulation.model.parameters import RavenParameters
 
 FITTABLE_EFFECTS = ("cable_stretch", "gravity_stretch", "coupling", "coulomb_friction", "viscous_friction")
 """The effects the identification estimates by default (the UKF's model class)."""
-IDENTIFIABLE_EFFECTS = FITTABLE_EFFECTS + ("motor_friction",)
-"""Every effect whose parameters the identification can estimate: :data:`FITTABLE_EFFECTS` and the
+IDENTIFIABLE_EFFECTS = FITTABLE_EFFECTS + ("motor_friction", "transmission_error")
+"""Every effect whose parameters the identification can estimate: :data:`FITTABLE_EFFECTS`, the
 motors' and gearboxes' friction, which only the motor torques see (the smooth law of
-:func:`simulation.model.laws.motor_friction`, on the positioning joints)."""
+:func:`simulation.model.laws.motor_friction`, on the positioning joints), and the transmission
+ratios' errors (each motor's column of the coupling scaled by ``1 / (1 + ratio_error)``, in the
+cable ends and in the load the motors feel, as :class:`~simulation.model.effects.TransmissionError`
+says)."""
 JOINT_NAMES = POSITIONING_NAMES
 COUPLING_NAMES = ("c01", "c02", "c12")
 OFFSET = "offset"
@@ -62,11 +66,13 @@ QUANTITIES = (
     # a round 1 mN m at the motor shaft and a loss of 0.1 per unit of transmitted torque, from zero
     Quantity("motor_friction", "coulomb", "nonnegative", (1e-3, 1e-3, 1e-3), start=(0.0, 0.0, 0.0)),
     Quantity("motor_friction", "gearbox_loss", "nonnegative", (0.1, 0.1, 0.1), start=(0.0, 0.0, 0.0)),
+    # the nominal ratios are right until the data say otherwise; a caliper's reading is 0.1 % of a radius
+    Quantity("transmission_error", "ratio_error", "linear", (1e-3, 1e-3, 1e-3), start=(0.0, 0.0, 0.0)),
 )
 """The model's quantities in slot order (slot = 3 * quantity index + entry)."""
 N_SLOTS = 3 * len(QUANTITIES)
-STIFFNESS, HARDENING, DAMPING, COULOMB, VISCOUS, LOAD_SCALE, COUPLING_DELTA, OFFSETS, MOTOR_COULOMB, GEARBOX_LOSS = (
-    slice(3 * i, 3 * i + 3) for i in range(len(QUANTITIES)))
+(STIFFNESS, HARDENING, DAMPING, COULOMB, VISCOUS, LOAD_SCALE, COUPLING_DELTA, OFFSETS, MOTOR_COULOMB, GEARBOX_LOSS,
+ RATIO_ERROR) = (slice(3 * i, 3 * i + 3) for i in range(len(QUANTITIES)))
 
 DEFAULT_FIXED = ("cable_stretch.damping",)
 """Held at the base values unless asked otherwise: the cable damping multiplies the stretch rate,

@@ -8,7 +8,9 @@ cables carry,
 and two measurements check it:
 
 * the joints: the motors, through the coupling ``A`` and the offsets ``o``, put the cable ends at
-  ``p = A u + o``; a cable carrying the elastic tension ``T - damping * s'`` is stretched by
+  ``p = A u + o`` (with ``transmission_error`` in the model, ``A`` scaled column by column by
+  ``1 / (1 + ratio_error)``: the true ratio of each motor's transmission is the nominal one times
+  ``1 + ratio_error``); a cable carrying the elastic tension ``T - damping * s'`` is stretched by
   ``s = x0 asinh((T - damping s') / (k x0))`` (:func:`simulation.model.laws.stretch_from_tension`),
   so the joints sit at ``p - s``; residual ``q - (p - s)`` (rad, rad, m);
 * the motor torques: the motors feel the cables through ``A^T``,
@@ -39,6 +41,7 @@ from simulation.identification.layout import (
     LOAD_SCALE,
     MOTOR_COULOMB,
     OFFSETS,
+    RATIO_ERROR,
     STIFFNESS,
     VISCOUS,
     ParameterLayout,
@@ -67,6 +70,8 @@ def residual_function(layout: ParameterLayout, constants: RavenConstants, veloci
     nominal = np.asarray(constants.cable_coupling, dtype=float)
     delta = slots[COUPLING_DELTA]
     a = law.coupling_matrix(nominal[0] + delta[0], nominal[1] + delta[1], nominal[2] + delta[2])
+    if "transmission_error" in layout.effects:
+        a = a @ ca.diag(1.0 / (1.0 + slots[RATIO_ERROR]))
     q, qd = d[D_Q], d[D_QD]
     u, ud, udd = d[D_U], d[D_UD], d[D_UDD]
     tension = law.link_tension(d[D_INERTIAL], d[D_GRAVITY], qd, load_scale, coulomb, ca.DM(velocity_scale), viscous)
