@@ -9,10 +9,10 @@ inertia), the cable law turns the loads into stretch, and the prediction is
     motor torque = (A^T T + J_u u'' + b_u u') * gearbox / transmission ratio,
 
 with ``A`` the cable coupling (each motor's column over ``1 + ratio_error`` with a transmission
-error, as in the simulator's engine), evaluated quasi-statically sample by sample (the cable's own vibration is far above the 30 Hz
-log) with the model layer's laws (:mod:`simulation.model.laws`: cable tension and its inverse,
-tangent stiffness, gravity load, play, Bouc-Wen hysteresis). For generic data the nominal model
-is ``joint = reported + offset``. The residual the workflow studies is measured minus predicted,
+error, as in the simulator's engine), evaluated quasi-statically sample by sample (the cable's own
+vibration is far above the 30 Hz log) with the model layer's laws (:mod:`simulation.model.laws`:
+cable tension and its inverse, tangent stiffness, gravity load, play, Bouc-Wen hysteresis). For
+generic data the nominal model is ``joint = reported + offset``. The residual the workflow studies is measured minus predicted,
 for the joints and, when the data has them, for the motor torques, which is what tells effects
 that look alike in the joints apart.
 """

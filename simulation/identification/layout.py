@@ -66,7 +66,7 @@ QUANTITIES = (
     # a round 1 mN m at the motor shaft and a loss of 0.1 per unit of transmitted torque, from zero
     Quantity("motor_friction", "coulomb", "nonnegative", (1e-3, 1e-3, 1e-3), start=(0.0, 0.0, 0.0)),
     Quantity("motor_friction", "gearbox_loss", "nonnegative", (0.1, 0.1, 0.1), start=(0.0, 0.0, 0.0)),
-    # the nominal ratios are right until the data say otherwise; a caliper's reading is 0.1 % of a radius
+    # the nominal ratios until the data say otherwise, searched in round steps of a tenth of a percent
     Quantity("transmission_error", "ratio_error", "linear", (1e-3, 1e-3, 1e-3), start=(0.0, 0.0, 0.0)),
 )
 """The model's quantities in slot order (slot = 3 * quantity index + entry)."""
