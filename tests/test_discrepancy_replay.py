@@ -203,3 +203,51 @@ def test_the_hysteresis_state_after_a_long_stretch_change_is_its_sub_steps_summe
         # many widths on, the state sits at its bound on the side of the motion
         assert z == pytest.approx(direction * width, rel=1e-12)
     assert _bouc_wen_after(z0, 0.0, beta, gamma) == z0
+
+
+def _replay_rms_at(log_rate: float) -> np.ndarray:
+    """Joint RMS residual (rad, rad, m) of the simulator's own parameters replayed on 30 s of random
+    motion logged at ``log_rate`` (Hz), offsets fitted on the first half."""
+    from simulation.discrepancy.fitting import residual
+    from simulation.engine.scenarios import powered_on, record_random_test
+    from simulation.recordings.recording import recording_to_dataset
+
+    params = generator_parameters(())
+    robot = powered_on(params, seed=30, log_rate=log_rate, truth_rate=log_rate)
+    kinematics = RavenII(params.arm, check_limits=False)
+    signals = MeasuredSignals.from_dataset(recording_to_dataset(record_random_test(robot, 30.0, seed=31), kinematics))
+    model = RavenModel(params, np.zeros(3))
+    first_half = np.arange(len(signals)) < len(signals) // 2
+    model = model.with_offsets(residual(model, signals, kinematics, mask=first_half).joint_offsets)
+    joints = residual(model, signals, kinematics, offsets=np.zeros(3)).joints
+    return np.sqrt(np.mean(joints ** 2, axis=0))
+
+
+def test_the_replay_of_a_fast_log_is_as_close_as_that_of_a_30_hz_log_of_the_same_motion():
+    # the derivatives behind the loads span the same time at any log rate: differentiated over a
+    # fixed count of samples, the encoders' quantization at 300 Hz left 20 times the 30 Hz residual
+    slow, fast = _replay_rms_at(30.0), _replay_rms_at(300.0)
+    np.testing.assert_allclose(fast, slow, rtol=0.1)
+
+
+@pytest.mark.parametrize("step, velocity, acceleration", [(0.034, 5, 7), (1 / 30, 5, 7), (1 / 300, 41, 61),
+                                                          (0.001, 134, 201), (0.1, 2, 3), (1.0, 2, 2)])
+def test_derivative_windows_span_the_same_time_at_any_log_rate(step, velocity, acceleration):
+    n = 200
+    time = np.arange(n) * step
+    signals = MeasuredSignals(time=time, truth=np.zeros((n, 3)), reported=np.zeros((n, 3)), drive=np.zeros((n, 3)),
+                              torque=None, payload_kg=np.zeros(n), homing=np.zeros(n, dtype=int),
+                              joint_names=("a", "b", "c"), units=("rad", "rad", "m"))
+    assert (signals.smoothing, signals.acceleration_window) == (velocity, acceleration)
+    # a selection keeps the windows of the whole record
+    part = signals.select(np.arange(n) < 50)
+    assert (part.smoothing, part.acceleration_window) == (velocity, acceleration)
+
+
+@pytest.mark.parametrize("window", [0, -3, 2.5, True])
+def test_a_derivative_window_that_is_not_a_positive_count_of_samples_is_refused(window):
+    n = 30
+    with pytest.raises(ValueError, match=r"^smoothing must be a positive number of samples, got "):
+        MeasuredSignals(time=np.arange(n) * 0.03, truth=np.zeros((n, 1)), reported=np.zeros((n, 1)),
+                        drive=np.zeros((n, 1)), torque=None, payload_kg=np.zeros(n), homing=np.zeros(n, dtype=int),
+                        joint_names=("a",), units=("rad",), smoothing=window)

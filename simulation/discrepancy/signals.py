@@ -19,8 +19,27 @@ from simulation.model.constants import POSITIONING_NAMES
 
 RAVEN_JOINTS = POSITIONING_NAMES
 RAVEN_UNITS = ("rad", "rad", "m")
-ACCELERATION_WINDOW = 7
-"""Samples (present and past) the accelerations are fitted over (see :attr:`MeasuredSignals.acceleration`)."""
+VELOCITY_SPAN_S = 4 / 30
+"""Time (s) each RAVEN-II velocity is fitted over, from the present sample back: four intervals of
+the 30 Hz log the workflow was built on (five samples). A span in time, not a count of samples:
+the encoders' quantization, differentiated over a fixed count of samples, grows with the log's rate
+(replaying the simulator's own parameters on a 300 Hz log, five-sample velocities and seven-sample
+accelerations left 18 times the shoulder residual and 29 times the elbow's of the same motion
+logged at 30 Hz)."""
+
+ACCELERATION_SPAN_S = 6 / 30
+"""Time (s) each RAVEN-II acceleration is fitted over (seven samples of a 30 Hz log; see
+:attr:`MeasuredSignals.acceleration`)."""
+
+
+def samples_spanning(time: np.ndarray, span: float) -> int:
+    """The number of consecutive samples (at least 2) whose first and last lie ``span`` seconds apart
+    at the record's median sample interval, rounded to the nearest interval."""
+    time = np.asarray(time, dtype=float)
+    step = float(np.median(np.diff(time))) if time.size > 1 else 0.0
+    if not (np.isfinite(step) and step > 0.0):
+        raise ValueError(f"a derivative window needs a record whose samples advance in time, got a median step of {step}")
+    return max(2, 1 + int(round(span / step)))
 
 
 def _causal_derivative(values: np.ndarray, time: np.ndarray, window: int, order: int = 2) -> np.ndarray:
@@ -78,7 +97,11 @@ class MeasuredSignals:
     arm : "left" or "right" for RAVEN-II data.
     tool_joints : (N, 3) reported tool joints J3..J5 (rad) for the kinematics, RAVEN-II only.
     smoothing : samples (present and past) each velocity is fitted over; no derivative looks
-        ahead, so a replay at a sample uses nothing measured after it.
+        ahead, so a replay at a sample uses nothing measured after it. None (the default): the
+        samples spanning :data:`VELOCITY_SPAN_S` at the record's median interval (5 at 30 Hz).
+    acceleration_window : samples (present and past) each acceleration is fitted over. None (the
+        default): the samples spanning :data:`ACCELERATION_SPAN_S` (7 at 30 Hz). Both are resolved
+        once, on the whole record, so a selection or a head keeps them.
     travel, loaded_travel : accumulated joint travel (and payload-weighted travel) since the start
         of the record; computed on construction unless given (a selection keeps the session's).
     """
@@ -95,7 +118,8 @@ class MeasuredSignals:
     kind: str = "generic"
     arm: str = "left"
     tool_joints: np.ndarray | None = None
-    smoothing: int = field(default=5)
+    smoothing: int | None = None
+    acceleration_window: int | None = None
     travel: np.ndarray | None = None
     loaded_travel: np.ndarray | None = None
 
@@ -117,6 +141,12 @@ class MeasuredSignals:
             raise ValueError("torque must be finite with the shape of truth")
         if self.kind not in ("raven", "generic"):
             raise ValueError(f"kind must be 'raven' or 'generic', got {self.kind!r}")
+        for name, span in (("smoothing", VELOCITY_SPAN_S), ("acceleration_window", ACCELERATION_SPAN_S)):
+            window = getattr(self, name)
+            if window is None:
+                object.__setattr__(self, name, samples_spanning(self.time, span))
+            elif isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
+                raise ValueError(f"{name} must be a positive number of samples, got {window!r}")
         if self.travel is None:
             # accumulated once over the whole record, so a selection keeps the session's history
             speed = np.abs(self.velocity)
@@ -147,10 +177,10 @@ class MeasuredSignals:
     @cached_property
     def acceleration(self) -> np.ndarray:
         """Joint acceleration (rad/s^2, m/s^2): the mean slope of :attr:`velocity` over the present
-        and the ``ACCELERATION_WINDOW - 1`` samples before it (causal; a second lag-free derivative
+        and the ``acceleration_window - 1`` samples before it (causal; a second lag-free derivative
         would double the encoders' noise in the inertial loads, which matters more than its lag of
-        about a tenth of a second at 30 Hz)."""
-        return _per_homing(_causal_derivative, self.velocity, self.time, self.homing, ACCELERATION_WINDOW, 1)
+        about a tenth of a second)."""
+        return _per_homing(_causal_derivative, self.velocity, self.time, self.homing, self.acceleration_window, 1)
 
     @cached_property
     def drive_velocity(self) -> np.ndarray:
@@ -160,7 +190,7 @@ class MeasuredSignals:
     @cached_property
     def drive_acceleration(self) -> np.ndarray:
         """Acceleration of the transmission's input, causal like :attr:`acceleration`."""
-        return _per_homing(_causal_derivative, self.drive_velocity, self.time, self.homing, ACCELERATION_WINDOW, 1)
+        return _per_homing(_causal_derivative, self.drive_velocity, self.time, self.homing, self.acceleration_window, 1)
 
     def cumulative_motion(self, per_kg: float = 0.0) -> np.ndarray:
         """Accumulated joint travel since the start of the record (rad, rad, m), optionally load-weighted.

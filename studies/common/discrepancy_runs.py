@@ -119,14 +119,14 @@ def generator_parameters(hidden=(), params: RavenParameters | None = None, size_
 
 
 def generate_measured(hidden=(), seed: int = 0, duration: float = 240.0, params: RavenParameters | None = None,
-                      size_factor: float = 1.0):
+                      size_factor: float = 1.0, robot_options: dict | None = None):
     """Simulated "measured" data: the starting structure plus the ``hidden`` effects, nothing else.
 
     Returns the dataset (a :class:`~simulation.recordings.dataset.CalibrationDataset` of one session
     of random motion, re-homed once at :data:`REHOMING_AT` when a per-homing offset is hidden, with
     :data:`HIDDEN_PAYLOAD_KG` (times ``size_factor``) at the tool tip and undeclared when
     ``payload`` is hidden) and the generating parameters (for the oracle and the report only; the
-    analysis never sees them).
+    analysis never sees them). ``robot_options`` go to the virtual robot (e.g. ``log_rate``).
     """
     from kinematics import RavenII
     from simulation.engine.scenarios import powered_on, record_random_test, rehome
@@ -138,7 +138,7 @@ def generate_measured(hidden=(), seed: int = 0, duration: float = 240.0, params:
     if not np.isfinite(size_factor) or size_factor <= 0:
         raise ValueError(f"size_factor must be a positive number, got {size_factor}")
     generator = generator_parameters(hidden, params, size_factor)
-    robot = powered_on(generator, seed=seed)
+    robot = powered_on(generator, seed=seed, **(robot_options or {}))
     if "payload" in hidden:
         robot.set_payload(HIDDEN_PAYLOAD_KG * size_factor)
     if set(hidden) & set(PER_HOMING_EFFECTS):
