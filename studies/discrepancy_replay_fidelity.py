@@ -17,9 +17,12 @@ tension of about 1.9 N), and the same 0.23 N added to the Coulomb force with not
 about as much more residual.
 ``--replay-friction-scale`` replays every dry friction (the Coulomb forces, the capstan friction
 coefficients) that many times the generator's values, in both records: the simulator's dry
-friction acts as about 1 % to 1.5 % more than its parameters in the replay's quasi-static terms,
-and 1.015 leaves the same insertion residual with capstan friction hidden as without.
-``--log-rate`` records at another rate than the 30 Hz of the robot's log.
+friction, integrated in 0.5 ms steps, acts as about 1 % to 1.5 % more than its parameters in the
+replay's continuous quasi-static terms, and 1.015 leaves the same insertion residual with capstan
+friction hidden as without.
+``--log-rate`` records at another rate than the 30 Hz of the robot's log; ``--substeps`` integrates
+the plant in that many steps per 1 ms servo tick instead of two (the friction's excess is the
+simulator's time step: with eight sub-steps the best scale is about 1.005).
 
 Run: ``python studies/discrepancy_replay_fidelity.py --hidden-effect capstan_friction --seed 30``
 (two four-minute records, about a minute on one core), ``--hidden-effect none --extra-coulomb
@@ -36,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from studies.common.discrepancy_runs import record_length
-from studies.common.runner import non_negative_int, positive_float, script_parser
+from studies.common.runner import non_negative_int, positive_float, positive_int, script_parser
 
 STUDY = "discrepancy_replay_fidelity"
 
@@ -53,10 +56,11 @@ def coulomb_increase(text: str) -> np.ndarray:
 
 
 def replay_residual(hidden: tuple[str, ...], seed: int, duration: float, extra_coulomb: np.ndarray,
-                    log_rate: float, params=None, friction_scale: float = 1.0) -> dict:
+                    log_rate: float, params=None, friction_scale: float = 1.0, substeps: int = 2) -> dict:
     """RMS residual per joint (SI) and largest repeating share per joint of the generator's own
     parameters replayed on the generated record of ``hidden`` (the generator built from ``params``,
-    the simulator's defaults unless given), with its dry friction times ``friction_scale``."""
+    the simulator's defaults unless given, integrated in ``substeps`` per servo tick), with its dry
+    friction times ``friction_scale``."""
     from kinematics import RavenII
     from simulation.discrepancy.fitting import residual
     from simulation.discrepancy.replay import RavenModel
@@ -72,6 +76,7 @@ def replay_residual(hidden: tuple[str, ...], seed: int, duration: float, extra_c
         friction = params.effect("coulomb_friction")
         params = params.with_effect(friction.replace(force=friction.force + extra_coulomb))
     rates = {} if log_rate == LOG_RATE else {"log_rate": log_rate, "truth_rate": max(log_rate, TRUTH_RATE)}
+    rates["substeps"] = substeps
     dataset, generator = generate_measured(hidden, seed, duration, params=params, robot_options=rates)
     signals = MeasuredSignals.from_dataset(dataset)
     split = Split.by_time(signals)
@@ -103,6 +108,8 @@ def main(argv: list[str] | None = None) -> dict:
                         help="added to the Coulomb friction in both records (N m,N m,N)")
     parser.add_argument("--replay-friction-scale", type=positive_float, default=1.0,
                         help="replay every dry friction this many times the generator's values")
+    parser.add_argument("--substeps", type=positive_int, default=2,
+                        help="plant integration steps per 1 ms servo tick (the robot's default: 2)")
     parser.add_argument("--log-rate", type=positive_float, default=30.0, help="rate of the robot's log (Hz)")
     parser.add_argument("--out", type=Path, default=None, help="write both replays to this JSON file")
     args = parser.parse_args(argv)
@@ -110,24 +117,25 @@ def main(argv: list[str] | None = None) -> dict:
     hidden = check_hidden(args.hidden_effect)
     scale = args.replay_friction_scale
     runs = {"nothing hidden": replay_residual((), args.seed, args.duration, np.zeros(3), args.log_rate,
-                                              friction_scale=scale)}
+                                              friction_scale=scale, substeps=args.substeps)}
     if hidden or np.any(args.extra_coulomb > 0):
         label = ", ".join(hidden) or "nothing hidden"
         if np.any(args.extra_coulomb > 0):
             label += f", Coulomb + {','.join(f'{v:g}' for v in args.extra_coulomb)}"
         runs[label] = replay_residual(hidden, args.seed, args.duration, args.extra_coulomb, args.log_rate,
-                                      friction_scale=scale)
+                                      friction_scale=scale, substeps=args.substeps)
     units = np.array([np.degrees(1.0), np.degrees(1.0), 1e3])
     baseline = np.asarray(runs["nothing hidden"]["rms"])
     print(f"generator's own parameters replayed (dry friction x {scale:g}), seed {args.seed}, "
-          f"{args.duration:g} s at {args.log_rate:g} Hz")
+          f"{args.duration:g} s at {args.log_rate:g} Hz, {args.substeps} plant steps per servo tick")
     for label, run in runs.items():
         rms = np.asarray(run["rms"])
         print(f"{label}: RMS {', '.join(f'{v:.5f}' for v in rms * units)} (deg, deg, mm), "
               f"{', '.join(f'{r:.2f}' for r in rms / baseline)} x nothing hidden; largest repeating share "
               f"{', '.join(f'{s:.2f}' for s in run['repeating_share'])}")
     out = {"hidden_effect": list(hidden), "seed": args.seed, "duration_s": args.duration,
-           "extra_coulomb": args.extra_coulomb.tolist(), "replay_friction_scale": scale, "log_rate_hz": args.log_rate,
+           "extra_coulomb": args.extra_coulomb.tolist(), "replay_friction_scale": scale, "substeps": args.substeps,
+           "log_rate_hz": args.log_rate,
            "replays": runs}
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
