@@ -54,7 +54,8 @@ def pinned_fit(name: str, theta: np.ndarray):
 def summary(result) -> dict:
     return {"named_effects": list(result.named_effects), "shrink": result.shrink,
             "validation_gaps": [it.gap_before for it in result.iterations],
-            "fitted_parameters": result.fitted_parameters}
+            "fitted_parameters": result.fitted_parameters, "unexplained": result.unexplained,
+            "residual_structure": None if result.residual_structure is None else list(result.residual_structure)}
 
 
 def pinnable() -> tuple[str, ...]:
@@ -93,8 +94,11 @@ def main(argv: list[str] | None = None) -> dict:
            "generator_values": values, "blind": summary(blind), "pinned": summary(pinned)}
     for label in ("blind", "pinned"):
         s = out[label]
+        structure = s["residual_structure"]
+        repeats = "not checked" if structure is None else ", ".join(f"{v:.2f}" for v in structure)
         print(f"{label:7s} named {', '.join(s['named_effects']) or 'nothing'}; shrink {100 * s['shrink']:.1f} %; "
-              f"validation gap per iteration {', '.join(f'{g:.4g}' for g in s['validation_gaps'])}")
+              f"validation gap per iteration {', '.join(f'{g:.4g}' for g in s['validation_gaps'])}; "
+              f"unexplained {'yes' if s['unexplained'] else 'no'} (repeating share per joint {repeats})")
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(out, indent=1, default=lambda v: np.asarray(v).tolist()))
