@@ -10,7 +10,7 @@ effect needs (velocities, accelerations, cumulative motion) computed once.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
