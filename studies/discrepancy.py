@@ -44,6 +44,7 @@ from tqdm.auto import tqdm
 
 from simulation.discrepancy import DiscrepancyResult, WorkflowSettings, localize, strongest_dependence
 from simulation.discrepancy.signals import pooled_rmse, report_scale
+from simulation.engine.robot import LOG_RATE, TRUTH_RATE
 from studies.common.data_sources import is_dvrk_folder
 from studies.common.discrepancy_runs import (
     ABLATION_CHOICES,
@@ -477,8 +478,16 @@ def _repeats(shares) -> bool:
     return shares is not None and max(shares) >= WorkflowSettings().structure_share
 
 
+def log_rate_options(log_rate: float) -> dict:
+    """The virtual robot's options that log its state at ``log_rate`` (Hz) and the ground truth at
+    that rate or its own, whichever is faster; none at the robot's own rate."""
+    if log_rate == LOG_RATE:
+        return {}
+    return {"log_rate": float(log_rate), "truth_rate": max(float(log_rate), TRUTH_RATE)}
+
+
 def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,
-                            result: DiscrepancyResult, size_factor: float = 1.0) -> dict:
+                            result: DiscrepancyResult, size_factor: float = 1.0, log_rate: float = LOG_RATE) -> dict:
     """After the blind analysis: add the hidden effect, the true parameters and the oracle to the report."""
     report_path = Path(out) / "report.json"
     document = json.loads(report_path.read_text())
@@ -503,6 +512,7 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "seed": seed,
         "duration_s": duration,
         "size_factor": size_factor,
+        "log_rate_hz": log_rate,
         "generator_structure": structure,
         "true_parameters": to_jsonable({k: v for k, v in truth.items() if isinstance(v, dict)}),
         "oracle_gap_after": [float(v) for v in fit.gap_after],
@@ -521,7 +531,8 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
     section = [
         "## What generated the data (added after the blind analysis)",
         "",
-        f"Hidden effect: {', '.join(hidden) or 'none'} (seed {seed}, {duration:.0f} s of random motion, "
+        f"Hidden effect: {', '.join(hidden) or 'none'} (seed {seed}, {duration:.0f} s of random motion logged at "
+        f"{log_rate:g} Hz, "
         + ("at its default size" if size_factor == 1.0 else f"at {size_factor:g} times its default size")
         + f"); the generator's effects: {', '.join(structure)}.",
         "",
@@ -801,6 +812,9 @@ def main(argv=None) -> int:
     parser.add_argument("--size-factor", type=positive_float, default=1.0,
                         help="generate the hidden effect at this multiple of its default size (default 1: the "
                              "size its source gives)")
+    parser.add_argument("--log-rate", type=positive_float, default=LOG_RATE, metavar="HZ",
+                        help="--hidden-effect only: log the generated robot state (and the ground truth, at least "
+                             f"at its {TRUTH_RATE:g} Hz) at this rate instead of the robot's {LOG_RATE:g} Hz")
     parser.add_argument("--effects", type=parse_effect_list, default=None, metavar="NAMES",
                         help="--sweep only these hidden effects (comma-separated; default: every choice)")
     parser.add_argument("--joints", type=joint_numbers, default="4,5,6", help="dVRK joints (1-6) to study")
@@ -811,6 +825,8 @@ def main(argv=None) -> int:
                         help="no progress bars (nor, when stderr is not a terminal, a line per finished sweep run)")
     with StudyRun(parser, argv) as study:
         args = study.args
+        if args.log_rate != LOG_RATE and args.hidden_effect is None:
+            parser.error("--log-rate applies to --hidden-effect only: it is the rate of the data that option generates")
         progress = not args.no_progress and sys.stderr.isatty()
         if args.merge_sweeps:
             runs, duration, size_factor, files = read_sweeps(args.merge_sweeps)
@@ -827,12 +843,13 @@ def main(argv=None) -> int:
         if args.hidden_effect is not None:
             say(f"generating {args.duration:.0f} s of motion with {', '.join(args.hidden_effect) or 'nothing'} hidden...")
             dataset, generator = generate_measured(args.hidden_effect, seed=args.seed, duration=args.duration,
-                                                   size_factor=args.size_factor)
+                                                   size_factor=args.size_factor,
+                                                   robot_options=log_rate_options(args.log_rate))
             path = write_measured(dataset, study.folder)
             del dataset
             result, signals, split = analyse(path, study.folder, shown_path=study.final(path), progress=progress)
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result,
-                                    args.size_factor)
+                                    args.size_factor, args.log_rate)
         elif args.ablate is not None:
             result, signals, split, generator = run_ablation(args.ablate, seed=args.seed, duration=args.duration,
                                                              folder=study.folder)

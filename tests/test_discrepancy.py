@@ -843,3 +843,16 @@ def test_a_repeatable_residual_left_after_a_named_effect_is_flagged_unexplained(
 def test_the_structure_check_settings_are_checked(field, bad, message):
     with pytest.raises(ValueError, match=message):
         WorkflowSettings(**{field: bad})
+
+
+def test_the_log_rate_of_generated_data_is_the_one_asked_for():
+    from studies.common.discrepancy_runs import generate_measured
+    from studies.discrepancy import log_rate_options
+
+    assert log_rate_options(30.0) == {}
+    assert log_rate_options(300.0) == {"log_rate": 300.0, "truth_rate": 300.0}
+    # the ground truth is never logged slower than the robot's own 100 Hz
+    assert log_rate_options(50.0) == {"log_rate": 50.0, "truth_rate": 100.0}
+    dataset, _ = generate_measured((), seed=3, duration=5.0, robot_options=log_rate_options(200.0))
+    step = np.median(np.diff(dataset.time))
+    assert step == pytest.approx(0.005, abs=0.0011)  # 1 kHz servo ticks: 5 ms apart, give or take a tick
