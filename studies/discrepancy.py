@@ -435,22 +435,25 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
 
 
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
-            progress: bool = False):
+            progress: bool = False, max_rate: float | None = None):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     Returns the result, signals and split. ``shown_path`` is the input's name in the report (where
     the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
-    records its own). The analysis reads ``path`` and nothing else
-    (:func:`~studies.common.discrepancy_runs.analyse_measured`).
+    records its own); ``max_rate`` (Hz) thins a faster log first. The analysis reads ``path`` and
+    nothing else (:func:`~studies.common.discrepancy_runs.analyse_measured`).
     """
     import time
 
     clock = time.perf_counter()
     say("identifying the starting model and screening the library...")
-    result, signals, split = (analyse_measured(path, progress=progress) if arm == "left"
-                              else run_on_raven_dataset(read_measured(path, arm), progress=progress))
+    result, signals, split = (analyse_measured(path, progress=progress, max_rate=max_rate) if arm == "left"
+                              else run_on_raven_dataset(read_measured(path, arm, max_rate), progress=progress))
     source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
               "description": f"RAVEN-II data {Path(shown_path or path).name}"}
+    if max_rate is not None:
+        source["max_rate_hz"] = float(max_rate)
+        source["description"] += f", thinned to at most {max_rate:g} Hz"
     write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s)
     return result, signals, split
 
@@ -815,6 +818,9 @@ def main(argv=None) -> int:
     parser.add_argument("--log-rate", type=positive_float, default=LOG_RATE, metavar="HZ",
                         help="--hidden-effect only: log the generated robot state (and the ground truth, at least "
                              f"at its {TRUTH_RATE:g} Hz) at this rate instead of the robot's {LOG_RATE:g} Hz")
+    parser.add_argument("--max-rate", type=positive_float, default=None, metavar="HZ",
+                        help="--measured RAVEN-II data only: keep every k-th row so that the log's rate is at most "
+                             "HZ (the workflow's cost grows with the rows, and its thresholds were set at 30 Hz)")
     parser.add_argument("--effects", type=parse_effect_list, default=None, metavar="NAMES",
                         help="--sweep only these hidden effects (comma-separated; default: every choice)")
     parser.add_argument("--joints", type=joint_numbers, default="4,5,6", help="dVRK joints (1-6) to study")
@@ -827,6 +833,8 @@ def main(argv=None) -> int:
         args = study.args
         if args.log_rate != LOG_RATE and args.hidden_effect is None:
             parser.error("--log-rate applies to --hidden-effect only: it is the rate of the data that option generates")
+        if args.max_rate is not None and (args.measured is None or is_dvrk_folder(args.measured)):
+            parser.error("--max-rate applies to --measured RAVEN-II data only")
         progress = not args.no_progress and sys.stderr.isatty()
         if args.merge_sweeps:
             runs, duration, size_factor, files = read_sweeps(args.merge_sweeps)
@@ -872,7 +880,8 @@ def main(argv=None) -> int:
         else:
             with study.reading(args.measured):
                 read_measured(args.measured, args.arm)  # an unreadable input is a one-line usage error, before any work
-            result, signals, split = analyse(args.measured, study.folder, arm=args.arm, progress=progress)
+            result, signals, split = analyse(args.measured, study.folder, arm=args.arm, progress=progress,
+                                             max_rate=args.max_rate)
         study.publish()
     units = _unit_names(result.units)
     note = short_record_note(signals)

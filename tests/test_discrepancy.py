@@ -172,9 +172,11 @@ def test_an_effect_missing_from_the_library_is_unexplained_with_a_signature(cli_
 def test_generation_and_analysis_meet_only_through_the_file(cli_runs, tmp_path):
     from studies.discrepancy import main
 
-    # the analysis takes a path and nothing else (besides whether to draw a progress bar)
-    assert list(inspect.signature(analyse_measured).parameters) == ["path", "progress"]
-    assert inspect.signature(analyse_measured).parameters["progress"].kind is inspect.Parameter.KEYWORD_ONLY
+    # the analysis takes a path and nothing else (besides whether to draw a progress bar and the
+    # highest log rate to analyse at, both about the analysis, neither about what was generated)
+    parameters = inspect.signature(analyse_measured).parameters
+    assert list(parameters) == ["path", "progress", "max_rate"]
+    assert all(parameters[name].kind is inspect.Parameter.KEYWORD_ONLY for name in ("progress", "max_rate"))
     generated = cli_runs("capstan_runout")
     copy = tmp_path / "elsewhere" / "measured.parquet"
     copy.parent.mkdir()
@@ -856,3 +858,26 @@ def test_the_log_rate_of_generated_data_is_the_one_asked_for():
     dataset, _ = generate_measured((), seed=3, duration=5.0, robot_options=log_rate_options(200.0))
     step = np.median(np.diff(dataset.time))
     assert step == pytest.approx(0.005, abs=0.0011)  # 1 kHz servo ticks: 5 ms apart, give or take a tick
+
+
+def test_a_fast_log_is_thinned_to_the_highest_rate_asked_and_a_slower_one_is_kept_whole():
+    from studies.common.discrepancy_runs import thinned, thinning_step
+
+    time = np.arange(1000) * 0.001
+    assert thinning_step(time, None) == 1
+    assert thinning_step(time, 30.0) == 34  # 1 kHz to 29.4 Hz: the first step at or under 30 Hz
+    assert thinning_step(time, 1000.0) == 1 and thinning_step(time, 2000.0) == 1
+    assert thinning_step(np.arange(100) * 0.034, 30.0) == 1  # the robot's own 30 Hz log is kept whole
+    for bad in (0.0, -5.0, float("nan")):
+        with pytest.raises(ValueError, match="the highest log rate must be a positive number of Hz"):
+            thinning_step(time, bad)
+
+    class Log:
+        def __init__(self, t):
+            self.time = t
+
+        def select(self, keep):
+            return Log(self.time[keep])
+
+    kept = thinned(Log(time), 100.0).time
+    np.testing.assert_array_equal(kept, time[::10])
