@@ -67,6 +67,7 @@ from studies.common.discrepancy_runs import (
     run_on_raven_dataset,
     SHORT_RECORD_S,
     drift_record_note,
+    log_rate_options,
     short_record_note,
     true_values,
     verdict,
@@ -479,14 +480,6 @@ def _share_text(shares) -> str:
 def _repeats(shares) -> bool:
     """Whether a run's per-joint structure shares reach the workflow's flag."""
     return shares is not None and max(shares) >= WorkflowSettings().structure_share
-
-
-def log_rate_options(log_rate: float) -> dict:
-    """The virtual robot's options that log its state at ``log_rate`` (Hz) and the ground truth at
-    that rate or its own, whichever is faster; none at the robot's own rate."""
-    if log_rate == LOG_RATE:
-        return {}
-    return {"log_rate": float(log_rate), "truth_rate": max(float(log_rate), TRUTH_RATE)}
 
 
 def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,

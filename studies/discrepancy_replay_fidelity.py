@@ -7,8 +7,9 @@ as the workflow fits them) and prints the RMS residual per joint (deg, deg, mm) 
 repeating share (:func:`~simulation.discrepancy.signature.residual_structure` on the fit and
 validation parts, as the workflow's unexplained check computes it), beside the same for the same
 seed with nothing hidden. A replay that were the simulator's equal would leave the same residual
-with the effect as without: what it leaves more is the replay's form, which no fit can remove and
-which the unexplained check may flag after the right name.
+with the effect as without. What it leaves more is where the two differ: in form, which no fit can
+remove and which the unexplained check may flag after the right name, or in the scale the
+simulator's integration gives a parameter, which a fit takes (the options below tell them apart).
 
 ``--extra-coulomb`` adds to the generator's Coulomb friction (N m, N m, N) in the second record
 (not in the one with nothing hidden), to tell an effect's own law from a larger dry friction:
@@ -67,16 +68,14 @@ def replay_residual(hidden: tuple[str, ...], seed: int, duration: float, extra_c
     from simulation.discrepancy.signals import MeasuredSignals
     from simulation.discrepancy.signature import residual_structure
     from simulation.discrepancy.workflow import Split
-    from simulation.engine.robot import LOG_RATE, TRUTH_RATE
     from simulation.model.parameters import RavenParameters
-    from studies.common.discrepancy_runs import generate_measured
+    from studies.common.discrepancy_runs import generate_measured, log_rate_options
 
     params = params or RavenParameters()
     if np.any(extra_coulomb > 0):
         friction = params.effect("coulomb_friction")
         params = params.with_effect(friction.replace(force=friction.force + extra_coulomb))
-    rates = {} if log_rate == LOG_RATE else {"log_rate": log_rate, "truth_rate": max(log_rate, TRUTH_RATE)}
-    rates["substeps"] = substeps
+    rates = {**log_rate_options(log_rate), "substeps": substeps}
     dataset, generator = generate_measured(hidden, seed, duration, params=params, robot_options=rates)
     signals = MeasuredSignals.from_dataset(dataset)
     split = Split.by_time(signals)

@@ -848,8 +848,7 @@ def test_the_structure_check_settings_are_checked(field, bad, message):
 
 
 def test_the_log_rate_of_generated_data_is_the_one_asked_for():
-    from studies.common.discrepancy_runs import generate_measured
-    from studies.discrepancy import log_rate_options
+    from studies.common.discrepancy_runs import generate_measured, log_rate_options
 
     assert log_rate_options(30.0) == {}
     assert log_rate_options(300.0) == {"log_rate": 300.0, "truth_rate": 300.0}

@@ -156,6 +156,17 @@ def generate_measured(hidden=(), seed: int = 0, duration: float = 240.0, params:
     return dataset, generator
 
 
+def log_rate_options(log_rate: float) -> dict:
+    """The virtual robot's options (for :func:`generate_measured`) that log its state at ``log_rate``
+    (Hz) and the ground truth at that rate or its own, whichever is faster; none at the robot's own
+    rate."""
+    from simulation.engine.robot import LOG_RATE, TRUTH_RATE
+
+    if log_rate == LOG_RATE:
+        return {}
+    return {"log_rate": float(log_rate), "truth_rate": max(float(log_rate), TRUTH_RATE)}
+
+
 def write_measured(dataset, folder) -> Path:
     """Write ``dataset`` as ``folder/measured.parquet``, the one file between generation and analysis."""
     folder = Path(folder)
