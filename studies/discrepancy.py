@@ -12,13 +12,16 @@
 ROS bags, or a folder of either) it always starts from the same structure, the cable model of
 ``STARTING_STRUCTURE`` identified on the first half of the record, and screens the same library
 ``LIBRARY`` (:mod:`studies.common.discrepancy_runs`); it takes no seed and knows nothing of how the
-data were made. On the dVRK folder format the start is the dVRK's own nominal model (measured joints
-= reported joints plus offsets; wrist joints 4-6 by default) with the generic library.
+data were made. ``--max-rate HZ`` keeps every k-th row of a faster RAVEN-II log first (its thresholds
+were set on 30 Hz logs, and its cost grows with the rows). On the dVRK folder format the start is
+the dVRK's own nominal model (measured joints = reported joints plus offsets; wrist joints 4-6 by
+default) with the generic library.
 
 ``--hidden-effect NAME`` generates data with the virtual RAVEN-II (twenty minutes of random motion
 unless ``--duration`` says otherwise): the starting structure plus NAME and nothing else (``none``:
 nothing; several names separated by commas; NAME from the library, or ``capstan_runout``, which the
-library lacks). It writes them as ``DIR/measured.parquet`` and runs
+library lacks), logged at the robot's 30 Hz unless ``--log-rate`` says otherwise. It writes them as
+``DIR/measured.parquet`` and runs
 exactly the ``--measured`` analysis on that file. Only then, knowing the generator, it adds to the
 report the true parameters beside the fitted ones and the oracle: the generator's true structure
 fitted to the same fit part, whose held-out gap is what a model of the right structure closes. An
