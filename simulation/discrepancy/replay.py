@@ -9,12 +9,16 @@ inertia), the cable law turns the loads into stretch, and the prediction is
     motor torque = (A^T T + J_u u'' + b_u u') * gearbox / transmission ratio,
 
 with ``A`` the cable coupling (each motor's column over ``1 + ratio_error`` with a transmission
-error, as in the simulator's engine), evaluated quasi-statically sample by sample (the cable's own
-vibration is far above the 30 Hz log) with the model layer's laws (:mod:`simulation.model.laws`:
-cable tension and its inverse, tangent stiffness, gravity load, play, Bouc-Wen hysteresis). For
-generic data the nominal model is ``joint = reported + offset``. The residual the workflow studies is measured minus predicted,
-for the joints and, when the data has them, for the motor torques, which is what tells effects
-that look alike in the joints apart.
+error, as in the simulator's engine), evaluated sample by sample with the model layer's laws
+(:mod:`simulation.model.laws`: cable tension and its inverse, tangent stiffness, gravity load,
+play, Bouc-Wen hysteresis). The replay keeps no state of the links' vibration on their cables: the
+links' inertia enters through their measured accelerations. That vibration is not far above the
+30 Hz log (at zero tension, about 3 Hz for the shoulder and the elbow and 15 Hz for the insertion
+axis, from the kinematics' mass matrix at one pose and the default cable stiffness), which is one
+reason the replay is not the simulator's equal. For generic data the nominal model is
+``joint = reported + offset``. The residual the workflow studies is measured minus predicted, for
+the joints and, when the data has them, for the motor torques, which is what tells effects that
+look alike in the joints apart.
 """
 
 from __future__ import annotations

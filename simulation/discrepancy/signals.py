@@ -32,13 +32,20 @@ ACCELERATION_SPAN_S = 6 / 30
 :attr:`MeasuredSignals.acceleration`)."""
 
 
+def median_interval(time: np.ndarray) -> float:
+    """A record's median sample interval (s): its log period, robust to a dropped sample or a gap;
+    0 for fewer than two samples."""
+    time = np.asarray(time, dtype=float)
+    return float(np.median(np.diff(time))) if time.size > 1 else 0.0
+
+
 def samples_spanning(time: np.ndarray, span: float) -> int:
     """The number of consecutive samples (at least 2) whose first and last lie ``span`` seconds apart
     at the record's median sample interval, rounded to the nearest interval."""
-    time = np.asarray(time, dtype=float)
-    step = float(np.median(np.diff(time))) if time.size > 1 else 0.0
+    step = median_interval(time)
     if not (np.isfinite(step) and step > 0.0):
-        raise ValueError(f"a derivative window needs a record whose samples advance in time, got a median step of {step}")
+        raise ValueError(f"a derivative window needs a record whose samples advance in time, "
+                         f"got a median step of {step}")
     return max(2, 1 + int(round(span / step)))
 
 

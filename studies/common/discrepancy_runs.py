@@ -287,9 +287,10 @@ def thinning_step(time, max_rate: float | None) -> int:
         return 1
     if not (np.isfinite(max_rate) and max_rate > 0):
         raise ValueError(f"the highest log rate must be a positive number of Hz, got {max_rate}")
-    intervals = np.diff(np.asarray(time, dtype=float))
-    rate = 1.0 / float(np.median(intervals)) if intervals.size and np.median(intervals) > 0 else 0.0
-    return max(1, int(np.ceil(rate / max_rate - 1e-9)))
+    from simulation.discrepancy.signals import median_interval
+
+    step = median_interval(time)
+    return max(1, int(np.ceil(1.0 / (step * max_rate) - 1e-9))) if step > 0 else 1
 
 
 def thinned(dataset, max_rate: float | None):
