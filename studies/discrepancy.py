@@ -243,6 +243,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "rivals": {k: dict(v) for k, v in result.rivals.items()},
         "signature": list(result.signature),
         "residual_structure": _structure_list(result),
+        "backfit_capped": list(result.backfit_capped),
         "controller": _controller_document(result),
         "fitted_parameters": to_jsonable(result.fitted_parameters),
         "parameter_units": to_jsonable(result.parameter_units),
@@ -257,7 +258,8 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
              "equivalent": list(it.equivalent), "rivals": dict(it.rivals),
              "candidates": [{"name": s.name, "fitted": s.fitted, "validation_gap": s.validation_gap, "fit_gap": s.fit_gap,
                              "validation_torque_gap": s.torque_gap, "fit_torque_gap": s.fit_torque_gap,
-                             "bic": s.bic, "screened_chi_square": s.screened_chi_square, "parameters": s.values}
+                             "bic": s.bic, "screened_chi_square": s.screened_chi_square, "parameters": s.values,
+                             "backfit_rounds": s.backfit_rounds, "backfit_capped": s.backfit_capped}
                             for s in it.scores]}
             for it in result.iterations
         ],
@@ -383,6 +385,9 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
           + ", ".join(f"{name} (BIC higher by {d:.2f})" for name, d in rivals.items())
           + ": the data support those about as well" for named, rivals in result.rivals.items()],
         f"- unexplained residual left: {'yes' if result.unexplained else 'no'}",
+        *[f"- the backfit of {name} was still lowering the fit part's residual at its last allowed round "
+          f"({WorkflowSettings().backfit_rounds} by default): its fit, and the shrink, may stop short"
+          for name in result.backfit_capped],
         *([] if result.residual_structure is None else [
             "- repeatable structure of the residual the final model leaves (share of each joint's variance the "
             f"generic term library predicts on blocks it was not fitted to; flagged unexplained at "
@@ -519,6 +524,7 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "oracle_fitted_parameters": to_jsonable(fit.fitted_parameters),
         "fraction_of_oracle_shrink": fraction,
         "oracle_residual_structure": _structure_list(fit),
+        "oracle_backfit_capped": list(fit.backfit_capped),
     })
     write_json(report_path, document)
     units = _unit_names(result.units)
@@ -648,7 +654,8 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
                 "unexplained": result.unexplained, "gap_before": pooled_rmse(result.residual_before.joints, result.units),
                 "shrink": float(result.shrink), "oracle_shrink": oracle_shrink,
                 "residual_structure": _structure_list(result), "oracle_residual_structure": _structure_list(fit),
-                "signature": list(result.signature), "command_shrink": _command_shrink(result)}
+                "signature": list(result.signature), "command_shrink": _command_shrink(result),
+                "backfit_capped": list(result.backfit_capped), "oracle_backfit_capped": list(fit.backfit_capped)}
 
     jobs = [(e, s) for e in effects for s in seeds]
     results = Parallel(n_jobs=-1, return_as="generator")(delayed(one)(e, s) for e, s in jobs)

@@ -245,18 +245,26 @@ def test_a_record_length_above_six_hours_or_not_a_length_is_refused_before_gener
         generate_measured(("backlash",), duration=duration)
 
 
-@pytest.mark.xdist_group("discrepancy-backfit")
-def test_a_re_identification_that_leaves_its_valid_range_ends_the_backfit_and_nothing_else():
-    # on an unseen seed a backfit's re-identification returned a negative load scale, which the
-    # parameter set refuses: the candidate keeps the fit it had, as if the backfit had no rounds
-    from simulation.discrepancy import BaseIdentifier, run_workflow
-    from studies.common.discrepancy_runs import generate_measured, raven_base_identifier, raven_library
+@pytest.fixture(scope="module")
+def short_hysteresis():
+    """30 s with hysteresis hidden (seed 0): its signals, split, base identifier and identified starting model."""
+    from studies.common.discrepancy_runs import generate_measured, raven_base_identifier
 
     dataset, _ = generate_measured(("hysteresis",), seed=0, duration=30.0)
     signals = MeasuredSignals.from_dataset(dataset)
     split = Split.by_time(signals)
     base = raven_base_identifier(dataset, split.fit)
-    model = base.identify(STARTING_STRUCTURE, None)
+    return signals, split, base, base.identify(STARTING_STRUCTURE, None)
+
+
+@pytest.mark.xdist_group("discrepancy-backfit")
+def test_a_re_identification_that_leaves_its_valid_range_ends_the_backfit_and_nothing_else(short_hysteresis):
+    # on an unseen seed a backfit's re-identification returned a negative load scale, which the
+    # parameter set refuses: the candidate keeps the fit it had, as if the backfit had no rounds
+    from simulation.discrepancy import BaseIdentifier, run_workflow
+    from studies.common.discrepancy_runs import raven_library
+
+    signals, split, base, model = short_hysteresis
     calls = []
 
     def out_of_range(structure, correction, payload_kg=0.0):
@@ -274,6 +282,30 @@ def test_a_re_identification_that_leaves_its_valid_range_ends_the_backfit_and_no
     assert broken.named_effects == without.named_effects
     np.testing.assert_array_equal(broken.gap_after, without.gap_after)
     assert [s.bic for s in broken.iterations[0].scores] == [s.bic for s in without.iterations[0].scores]
+    # neither kept a round, so neither stopped at the cap
+    assert all(s.backfit_rounds == 0 and not s.backfit_capped for r in (broken, without) for s in r.iterations[0].scores)
+    assert broken.backfit_capped == () and without.backfit_capped == ()
+
+
+@pytest.mark.xdist_group("discrepancy-backfit")
+def test_a_backfit_cut_by_its_last_allowed_round_is_reported_and_one_that_stopped_is_not(short_hysteresis):
+    # on 30 s of data every round lowers the fit part's residual, so one allowed round is kept and
+    # cut short; with a tolerance no round meets, the same round is kept and ends the backfit itself
+    from simulation.discrepancy import run_workflow
+    from studies.common.discrepancy_runs import raven_library
+
+    signals, split, base, model = short_hysteresis
+    candidates = raven_library(signals, ("hysteresis",))
+    runs = {tolerance: run_workflow(model, signals, split, WorkflowSettings(max_iterations=1, accept_all=True,
+                                                                            backfit_rounds=1,
+                                                                            backfit_tolerance=tolerance),
+                                    candidates=candidates, base=base)
+            for tolerance in (0.0, 0.9)}
+    (cut,), (stopped,) = (runs[t].iterations[0].scores for t in (0.0, 0.9))
+    assert (cut.backfit_rounds, cut.backfit_capped) == (1, True)
+    assert (stopped.backfit_rounds, stopped.backfit_capped) == (1, False)
+    assert cut.values == stopped.values  # the same round, kept by both
+    assert runs[0.0].backfit_capped == ("hysteresis",) and runs[0.9].backfit_capped == ()
 
 
 def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
@@ -295,6 +327,10 @@ def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
     assert report["rivals"] == {k: dict(v) for k, v in result.rivals.items()}
     assert all(isinstance(it["rivals"], dict) for it in report["iterations"])
     assert len(report["residual_structure"]) == 2  # checked after the named effects too
+    # generic data have no base identification to backfit against
+    assert report["backfit_capped"] == []
+    assert all(c["backfit_rounds"] == 0 and c["backfit_capped"] is False
+               for it in report["iterations"] for c in it["candidates"])
     # 30 s of generic data: the short-record warning is about the RAVEN-II starting structure only
     assert report["record_s"] == pytest.approx(29.99) and report["short_record"] is None
     assert report["drift_note"] is None
@@ -841,7 +877,10 @@ def test_a_repeatable_residual_left_after_a_named_effect_is_flagged_unexplained(
 @pytest.mark.parametrize("field, bad, message", [
     ("structure_share", 0.0, "structure_share must be in"), ("structure_share", float("nan"), "structure_share must be in"),
     ("structure_share", 1.5, "structure_share must be in"), ("structure_folds", 1, "structure_folds must be an integer"),
-    ("structure_folds", 4.0, "structure_folds must be an integer")])
+    ("structure_folds", 4.0, "structure_folds must be an integer"),
+    ("backfit_rounds", -1, "backfit_rounds must be an integer"), ("backfit_rounds", 2.0, "backfit_rounds must be"),
+    ("backfit_tolerance", 1.0, "backfit_tolerance must be in"),
+    ("backfit_tolerance", float("nan"), "backfit_tolerance must be in")])
 def test_the_structure_check_settings_are_checked(field, bad, message):
     with pytest.raises(ValueError, match=message):
         WorkflowSettings(**{field: bad})
@@ -880,3 +919,27 @@ def test_a_fast_log_is_thinned_to_the_highest_rate_asked_and_a_slower_one_is_kep
 
     kept = thinned(Log(time), 100.0).time
     np.testing.assert_array_equal(kept, time[::10])
+
+
+def test_the_extrapolated_backfit_round_lands_on_the_fixed_point_of_a_slow_linear_contraction():
+    from simulation.discrepancy.workflow import BACKFIT_STEP_LIMIT, extrapolated_round
+
+    # rounds theta_k+1 = fixed + rho (theta_k - fixed) along one slow direction, parameters of unlike scales
+    fixed, scale = np.array([0.05, 2.0e-3, 12.0]), np.array([0.01, 1e-3, 10.0])
+    lower, upper = np.zeros(3), np.array([1.0, 1.0, 100.0])
+    direction = np.array([1.0, -0.5, 2.0]) * scale
+    for rho in (0.5, 0.92):
+        rounds = [fixed + 0.3 * rho ** k * direction for k in range(3)]
+        np.testing.assert_allclose(extrapolated_round(*rounds, lower, upper, scale), fixed, rtol=1e-12)
+    # a contraction slower than the step limit allows goes as far as the limit: (1 - limit (1 - rho))^2 of the way left
+    rho = 0.99
+    rounds = [fixed + 0.3 * rho ** k * direction for k in range(3)]
+    left = (1 - BACKFIT_STEP_LIMIT * (1 - rho)) ** 2
+    np.testing.assert_allclose(extrapolated_round(*rounds, lower, upper, scale), fixed + 0.3 * left * direction,
+                               rtol=1e-9)
+    # rounds that speed up (no contraction to extrapolate) give the last round; the bounds hold
+    rounds = [fixed, fixed + 0.1 * direction, fixed + 0.3 * direction]
+    np.testing.assert_allclose(extrapolated_round(*rounds, lower, upper, scale), rounds[2])
+    rounds = [fixed + 0.3 * rho ** k * direction * -50 for k in range(3)]
+    assert np.all(extrapolated_round(*rounds, lower, upper, scale) >= lower)
+    np.testing.assert_array_equal(extrapolated_round(fixed, fixed, fixed, lower, upper, scale), fixed)
