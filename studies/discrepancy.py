@@ -13,7 +13,10 @@ ROS bags, or a folder of either) it always starts from the same structure, the c
 ``STARTING_STRUCTURE`` identified on the first half of the record, and screens the same library
 ``LIBRARY`` (:mod:`studies.common.discrepancy_runs`); it takes no seed and knows nothing of how the
 data were made. ``--max-rate HZ`` keeps every k-th row of a faster RAVEN-II log first (its thresholds
-were set on 30 Hz logs, and its cost grows with the rows). On the dVRK folder format the start is
+were set on 30 Hz logs, and its cost grows with the rows). ``--backfit-rounds N`` allows N rounds
+of re-identifying the starting structure around a candidate instead of six (``report.json``'s
+``backfit_capped`` names the fits that six cut short; with ``--hidden-effect`` the oracle gets the
+same cap). On the dVRK folder format the start is
 the dVRK's own nominal model (measured joints = reported joints plus offsets; wrist joints 4-6 by
 default) with the generic library.
 
@@ -59,6 +62,7 @@ from studies.common.discrepancy_runs import (
     STARTING_STRUCTURE,
     UNMODELLED_EFFECTS,
     analyse_measured,
+    analysis_settings,
     check_hidden,
     generate_measured,
     largest_share,
@@ -243,6 +247,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "rivals": {k: dict(v) for k, v in result.rivals.items()},
         "signature": list(result.signature),
         "residual_structure": _structure_list(result),
+        "backfit_rounds": result.backfit_rounds,
         "backfit_capped": list(result.backfit_capped),
         "controller": _controller_document(result),
         "fitted_parameters": to_jsonable(result.fitted_parameters),
@@ -386,7 +391,7 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
           + ": the data support those about as well" for named, rivals in result.rivals.items()],
         f"- unexplained residual left: {'yes' if result.unexplained else 'no'}",
         *[f"- the backfit of {name} was still lowering the fit part's residual at its last allowed round "
-          f"({WorkflowSettings().backfit_rounds} by default): its fit, and the shrink, may stop short"
+          f"(round {result.backfit_rounds}; `--backfit-rounds` allows more): its fit, and the shrink, may stop short"
           for name in result.backfit_capped],
         *([] if result.residual_structure is None else [
             "- repeatable structure of the residual the final model leaves (share of each joint's variance the "
@@ -444,20 +449,25 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
 
 
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
-            progress: bool = False, max_rate: float | None = None):
+            progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     Returns the result, signals and split. ``shown_path`` is the input's name in the report (where
     the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
-    records its own); ``max_rate`` (Hz) thins a faster log first. The analysis reads ``path`` and
+    records its own); ``max_rate`` (Hz) thins a faster log first; ``backfit_rounds`` caps the
+    backfit's rounds instead of the workflow's default. The analysis reads ``path`` and
     nothing else (:func:`~studies.common.discrepancy_runs.analyse_measured`).
     """
     import time
 
     clock = time.perf_counter()
     say("identifying the starting model and screening the library...")
-    result, signals, split = (analyse_measured(path, progress=progress, max_rate=max_rate) if arm == "left"
-                              else run_on_raven_dataset(read_measured(path, arm, max_rate), progress=progress))
+    if arm == "left":
+        result, signals, split = analyse_measured(path, progress=progress, max_rate=max_rate,
+                                                  backfit_rounds=backfit_rounds)
+    else:
+        result, signals, split = run_on_raven_dataset(read_measured(path, arm, max_rate), progress=progress,
+                                                      settings=analysis_settings(backfit_rounds))
     source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
               "description": f"RAVEN-II data {Path(shown_path or path).name}"}
     if max_rate is not None:
@@ -492,10 +502,11 @@ def _repeats(shares) -> bool:
 
 def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,
                             result: DiscrepancyResult, size_factor: float = 1.0, log_rate: float = LOG_RATE) -> dict:
-    """After the blind analysis: add the hidden effect, the true parameters and the oracle to the report."""
+    """After the blind analysis: add the hidden effect, the true parameters and the oracle (with the
+    analysis's backfit cap) to the report."""
     report_path = Path(out) / "report.json"
     document = json.loads(report_path.read_text())
-    fit = oracle(path, hidden)
+    fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds)
     to_report = report_scale(result.units)
     before = pooled_rmse(result.residual_before.joints, result.units)
     oracle_after = float(np.sqrt(np.mean(np.square(fit.gap_after * to_report))))
@@ -824,6 +835,10 @@ def main(argv=None) -> int:
     parser.add_argument("--max-rate", type=positive_float, default=None, metavar="HZ",
                         help="--measured RAVEN-II data only: keep every k-th row so that the log's rate is at most "
                              "HZ (the workflow's cost grows with the rows, and its thresholds were set at 30 Hz)")
+    parser.add_argument("--backfit-rounds", type=non_negative_int, default=None, metavar="N",
+                        help="--measured RAVEN-II data and --hidden-effect only: at most N backfit rounds instead of "
+                             f"the workflow's {WorkflowSettings().backfit_rounds} (report.json's backfit_capped names "
+                             "fits the cap cut short)")
     parser.add_argument("--effects", type=parse_effect_list, default=None, metavar="NAMES",
                         help="--sweep only these hidden effects (comma-separated; default: every choice)")
     parser.add_argument("--joints", type=joint_numbers, default="4,5,6", help="dVRK joints (1-6) to study")
@@ -838,6 +853,9 @@ def main(argv=None) -> int:
             parser.error("--log-rate applies to --hidden-effect only: it is the rate of the data that option generates")
         if args.max_rate is not None and (args.measured is None or is_dvrk_folder(args.measured)):
             parser.error("--max-rate applies to --measured RAVEN-II data only")
+        if args.backfit_rounds is not None and (args.hidden_effect is None and (
+                args.measured is None or is_dvrk_folder(args.measured))):
+            parser.error("--backfit-rounds applies to --measured RAVEN-II data and --hidden-effect only")
         progress = not args.no_progress and sys.stderr.isatty()
         if args.merge_sweeps:
             runs, duration, size_factor, files = read_sweeps(args.merge_sweeps)
@@ -858,7 +876,8 @@ def main(argv=None) -> int:
                                                    robot_options=log_rate_options(args.log_rate))
             path = write_measured(dataset, study.folder)
             del dataset
-            result, signals, split = analyse(path, study.folder, shown_path=study.final(path), progress=progress)
+            result, signals, split = analyse(path, study.folder, shown_path=study.final(path), progress=progress,
+                                             backfit_rounds=args.backfit_rounds)
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result,
                                     args.size_factor, args.log_rate)
         elif args.ablate is not None:
@@ -884,7 +903,7 @@ def main(argv=None) -> int:
             with study.reading(args.measured):
                 read_measured(args.measured, args.arm)  # an unreadable input is a one-line usage error, before any work
             result, signals, split = analyse(args.measured, study.folder, arm=args.arm, progress=progress,
-                                             max_rate=args.max_rate)
+                                             max_rate=args.max_rate, backfit_rounds=args.backfit_rounds)
         study.publish()
     units = _unit_names(result.units)
     note = short_record_note(signals)

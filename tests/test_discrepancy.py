@@ -172,11 +172,13 @@ def test_an_effect_missing_from_the_library_is_unexplained_with_a_signature(cli_
 def test_generation_and_analysis_meet_only_through_the_file(cli_runs, tmp_path):
     from studies.discrepancy import main
 
-    # the analysis takes a path and nothing else (besides whether to draw a progress bar and the
-    # highest log rate to analyse at, both about the analysis, neither about what was generated)
+    # the analysis takes a path and nothing else (besides whether to draw a progress bar, the
+    # highest log rate to analyse at and the backfit's round cap, all about the analysis, none about
+    # what was generated)
     parameters = inspect.signature(analyse_measured).parameters
-    assert list(parameters) == ["path", "progress", "max_rate"]
-    assert all(parameters[name].kind is inspect.Parameter.KEYWORD_ONLY for name in ("progress", "max_rate"))
+    assert list(parameters) == ["path", "progress", "max_rate", "backfit_rounds"]
+    assert all(parameters[name].kind is inspect.Parameter.KEYWORD_ONLY
+               for name in ("progress", "max_rate", "backfit_rounds"))
     generated = cli_runs("capstan_runout")
     copy = tmp_path / "elsewhere" / "measured.parquet"
     copy.parent.mkdir()
@@ -328,7 +330,7 @@ def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
     assert all(isinstance(it["rivals"], dict) for it in report["iterations"])
     assert len(report["residual_structure"]) == 2  # checked after the named effects too
     # generic data have no base identification to backfit against
-    assert report["backfit_capped"] == []
+    assert report["backfit_capped"] == [] and report["backfit_rounds"] is None
     assert all(c["backfit_rounds"] == 0 and c["backfit_capped"] is False
                for it in report["iterations"] for c in it["candidates"])
     # 30 s of generic data: the short-record warning is about the RAVEN-II starting structure only
@@ -943,3 +945,32 @@ def test_the_extrapolated_backfit_round_lands_on_the_fixed_point_of_a_slow_linea
     rounds = [fixed + 0.3 * rho ** k * direction * -50 for k in range(3)]
     assert np.all(extrapolated_round(*rounds, lower, upper, scale) >= lower)
     np.testing.assert_array_equal(extrapolated_round(fixed, fixed, fixed, lower, upper, scale), fixed)
+
+
+def test_the_backfit_cap_asked_on_the_command_line_reaches_the_blind_analysis(monkeypatch, tmp_path):
+    import studies.common.discrepancy_runs as runs
+    import studies.discrepancy as command
+
+    used = []
+    monkeypatch.setattr(runs, "read_measured", lambda path, arm="left", max_rate=None: path)
+    monkeypatch.setattr(runs, "run_on_raven_dataset",
+                        lambda dataset, progress=False, settings=None: used.append(settings) or "run")
+    assert runs.analyse_measured("a.parquet", backfit_rounds=30) == "run" and runs.analyse_measured("a.parquet") == "run"
+    assert used == [WorkflowSettings(backfit_rounds=30), WorkflowSettings()]
+
+    class Stop(Exception):
+        pass
+
+    asked = []
+
+    def stop(path, out, **options):
+        asked.append(options)
+        raise Stop
+
+    monkeypatch.setattr(command, "read_measured", lambda path, arm="left": None)
+    monkeypatch.setattr(command, "analyse", stop)
+    (tmp_path / "log.parquet").write_bytes(b"")
+    for extra, cap in (([], None), (["--backfit-rounds", "30"], 30)):
+        with pytest.raises(Stop):
+            command.main(["--measured", str(tmp_path / "log.parquet"), "--out", str(tmp_path / "out"), *extra])
+        assert asked[-1]["backfit_rounds"] == cap

@@ -244,8 +244,8 @@ class DiscrepancyResult:
     controller's law on the logged commands (:mod:`simulation.discrepancy.controller`), None when
     the data or the library has no controller candidate. ``backfit_capped`` names the named effects
     whose backfit was still lowering the fit part's residual at its last allowed round
-    (``WorkflowSettings.backfit_rounds``): their fit, and the shrink, may stop short of where more
-    rounds would take them.
+    (``backfit_rounds``, the cap of this run, None without a base identifier to backfit against):
+    their fit, and the shrink, may stop short of where more rounds would take them.
     """
 
     named_effects: tuple[str, ...]
@@ -271,6 +271,7 @@ class DiscrepancyResult:
     residual_structure: tuple[float, ...] | None = None
     controller: ControllerCheck | None = None
     backfit_capped: tuple[str, ...] = ()
+    backfit_rounds: int | None = None
 
 
 SCREEN_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
@@ -766,4 +767,5 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         residual_structure=structure,
         controller=controller_check,
         backfit_capped=tuple(s.name for it in iterations for s in it.scores if s.name == it.named and s.backfit_capped),
+        backfit_rounds=settings.backfit_rounds if base is not None else None,
     )

@@ -306,16 +306,23 @@ def thinned(dataset, max_rate: float | None):
     return dataset.select(keep)
 
 
-def analyse_measured(path, *, progress: bool = False, max_rate: float | None = None
-                     ) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+def analysis_settings(backfit_rounds: int | None = None) -> WorkflowSettings:
+    """The default :class:`WorkflowSettings`, with at most ``backfit_rounds`` backfit rounds when given."""
+    return WorkflowSettings() if backfit_rounds is None else WorkflowSettings(backfit_rounds=backfit_rounds)
+
+
+def analyse_measured(path, *, progress: bool = False, max_rate: float | None = None,
+                     backfit_rounds: int | None = None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
     """The blind analysis of RAVEN-II data: all it knows is the file (or folder) at ``path``.
 
     Always the same :data:`STARTING_STRUCTURE`, identified on the first half of the record, the
     same :data:`LIBRARY` of candidates and the default :class:`WorkflowSettings`: no seed, no
     generator, no name of what the data may hide. ``max_rate`` (Hz) thins a faster log first
-    (:func:`thinned`); None analyses every row.
+    (:func:`thinned`); None analyses every row. ``backfit_rounds`` caps the backfit's rounds
+    instead of the default (:func:`analysis_settings`).
     """
-    return run_on_raven_dataset(read_measured(path, max_rate=max_rate), progress=progress)
+    return run_on_raven_dataset(read_measured(path, max_rate=max_rate), progress=progress,
+                                settings=analysis_settings(backfit_rounds))
 
 
 SHORT_RECORD_S = 60.0
