@@ -17,7 +17,7 @@ residual at the cap (``DiscrepancyResult.backfit_capped``) and the analysis's CP
 generator only to print its values; every analysis runs on the file.
 
 Run: ``python studies/discrepancy_backfit.py --hidden-effect capstan_friction --seed 34`` (two
-twenty-minute analyses, about nine minutes on one core).
+twenty-minute analyses, about ten minutes on one core).
 """
 
 from __future__ import annotations
