@@ -54,6 +54,15 @@ def test_parts_merge_into_the_table_of_one_sweep_over_the_same_runs(tmp_path):
     assert "| backlash | 1 of 2 |" in table and "| no |" in table and "| hysteresis | 1 of 1 |" in table
 
 
+def test_runs_whose_backfit_the_cap_cut_are_counted_and_runs_recorded_before_the_count_are_not(tmp_path):
+    capped = dict(_run("hysteresis", 3, ("hysteresis",), 0.72, 0.72), backfit_capped=["hysteresis"])
+    kept = dict(_run("hysteresis", 4, ("hysteresis",), 0.74, 0.74), backfit_capped=[])
+    summarise_sweep(RUNS + [capped, kept], 1200.0, tmp_path)
+    table = _summary_table((tmp_path / "confusion.md").read_text())
+    assert "| hysteresis | 3 of 3 (the backfit cut by its cap in 1) |" in table
+    assert "| backlash | 1 of 2 |" in table  # no run of it says how its backfit ended
+
+
 @pytest.mark.parametrize("second, changes, named", [
     ([RUNS[2]], {}, "backlash with seed 0 is in both"),
     ([RUNS[4]], {"duration_s": 240.0}, "differs from the sweeps before it in record length or effect size"),
