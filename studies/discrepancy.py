@@ -741,7 +741,8 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
         "structure fitted to the same fit part by the same steps; 'then unexplained': runs that named an effect "
         "and still left a residual that repeats, and in how many of them the oracle's residual repeats as well (a "
         "model of the right structure fitted to that record leaves it too); 'the backfit cut by its cap': runs "
-        "whose named effect's backfit was still improving at its last allowed round (its fit may stop short). Goal: named first on at least 4 of 5 seeds "
+        "whose named effect's backfit was still improving at its last allowed round (its fit may stop short). "
+        "Goal: named first on at least 4 of 5 seeds "
         "and, on every seed, a shrink of at least 50 % or 80 % of the oracle's.", "",
         markdown_table(["hidden", "named first", "gap", "shrink %", "oracle shrink %", "goal met"], summary_rows), "",
         "## Confusion matrix", "",

@@ -38,14 +38,11 @@ STUDY = "discrepancy_backfit"
 
 
 def round_caps(text: str) -> tuple[int, ...]:
-    """Backfit caps separated by commas: integers of at least 0."""
+    """Backfit caps separated by commas: integers of at least 0, each analysed once, in order."""
     try:
-        caps = tuple(int(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be integers separated by commas, got {text!r}") from None
-    if not caps or any(c < 0 for c in caps):
-        raise argparse.ArgumentTypeError(f"must be integers >= 0 separated by commas, got {text!r}")
-    return caps
+        return tuple(sorted({non_negative_int(part) for part in text.split(",")}))
+    except argparse.ArgumentTypeError as error:
+        raise argparse.ArgumentTypeError(f"{text!r}: {error}") from None
 
 
 def summary(result, cpu_s: float) -> dict:

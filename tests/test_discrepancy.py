@@ -285,7 +285,8 @@ def test_a_re_identification_that_leaves_its_valid_range_ends_the_backfit_and_no
     np.testing.assert_array_equal(broken.gap_after, without.gap_after)
     assert [s.bic for s in broken.iterations[0].scores] == [s.bic for s in without.iterations[0].scores]
     # neither kept a round, so neither stopped at the cap
-    assert all(s.backfit_rounds == 0 and not s.backfit_capped for r in (broken, without) for s in r.iterations[0].scores)
+    assert all(s.backfit_rounds == 0 and not s.backfit_capped
+               for r in (broken, without) for s in r.iterations[0].scores)
     assert broken.backfit_capped == () and without.backfit_capped == ()
 
 
@@ -955,7 +956,8 @@ def test_the_backfit_cap_asked_on_the_command_line_reaches_the_blind_analysis(mo
     monkeypatch.setattr(runs, "read_measured", lambda path, arm="left", max_rate=None: path)
     monkeypatch.setattr(runs, "run_on_raven_dataset",
                         lambda dataset, progress=False, settings=None: used.append(settings) or "run")
-    assert runs.analyse_measured("a.parquet", backfit_rounds=30) == "run" and runs.analyse_measured("a.parquet") == "run"
+    assert runs.analyse_measured("a.parquet", backfit_rounds=30) == "run"
+    assert runs.analyse_measured("a.parquet") == "run"
     assert used == [WorkflowSettings(backfit_rounds=30), WorkflowSettings()]
 
     class Stop(Exception):

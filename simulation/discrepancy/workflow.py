@@ -627,7 +627,8 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                 improved = new_chi <= (1 - settings.backfit_tolerance) * chi
                 theta, trial, chi = new_theta, with_fitted_offsets(new_trial), new_chi
                 kept += 1
-                plain = [np.asarray(theta, dtype=float)] if jump is not None else plain + [np.asarray(theta, dtype=float)]
+                # a kept jump starts a new run of plain rounds
+                plain = ([] if jump is not None else plain) + [np.asarray(theta, dtype=float)]
                 if not improved:
                     break
             else:
