@@ -14,8 +14,8 @@ ROS bags, or a folder of either) it always starts from the same structure, the c
 ``LIBRARY`` (:mod:`studies.common.discrepancy_runs`); it takes no seed and knows nothing of how the
 data were made. ``--max-rate HZ`` keeps every k-th row of a faster RAVEN-II log first (its thresholds
 were set on 30 Hz logs, and its cost grows with the rows). ``--backfit-rounds N`` allows N rounds
-of re-identifying the starting structure around a candidate instead of six (``report.json``'s
-``backfit_capped`` names the fits that six cut short; with ``--hidden-effect`` the oracle gets the
+of re-identifying the starting structure around a candidate instead of thirty (``report.json``'s
+``backfit_capped`` names the fits the cap cut short; with ``--hidden-effect`` the oracle gets the
 same cap). On the dVRK folder format the start is
 the dVRK's own nominal model (measured joints = reported joints plus offsets; wrist joints 4-6 by
 default) with the generic library.

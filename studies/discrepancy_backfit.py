@@ -2,10 +2,11 @@
 
 A candidate the identification cannot fit is backfitted: fitted on top of the starting model, the
 starting structure re-identified with the candidate's share removed, the candidate fitted again,
-for at most ``WorkflowSettings.backfit_rounds`` rounds (six), each kept only if it lowers the fit
-part's weighted residual. Where the candidate and the base share a direction (capstan friction and
-the identified Coulomb force: both bound the joint's friction) each round moves them only a little
-along it, and six rounds can stop far from where the rounds converge.
+for at most ``WorkflowSettings.backfit_rounds`` rounds (thirty; six until the README's
+thirty-round sweep), each kept only if it lowers the fit part's weighted residual. Where the
+candidate and the base share a direction (capstan friction and the identified Coulomb force: both
+bound the joint's friction) each round moves them only a little along it, and six rounds can stop
+far from where the rounds converge.
 
 This study generates the data of ``python studies/discrepancy.py --hidden-effect NAME --seed S``
 (twenty minutes unless ``--duration`` says otherwise), writes it to a file and analyses that file
@@ -83,8 +84,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--duration", type=record_length, default=DEFAULT_RECORD_S,
                         help="record length (s, at most six hours)")
     parser.add_argument("--size-factor", type=positive_float, default=1.0, help="the hidden effect's size (x default)")
-    parser.add_argument("--rounds", type=round_caps, default=(WorkflowSettings().backfit_rounds, 30),
-                        help="backfit caps to compare, separated by commas (default: the workflow's 6, and 30)")
+    parser.add_argument("--rounds", type=round_caps, default=round_caps(f"6,{WorkflowSettings().backfit_rounds}"),
+                        help="backfit caps to compare, separated by commas (default: 6, the workflow's cap until "
+                             f"the thirty-round sweep, and the workflow's {WorkflowSettings().backfit_rounds})")
     parser.add_argument("--oracle", action="store_true", help="fit the generator's structure with each cap too")
     parser.add_argument("--accelerate", action="store_true",
                         help="with WorkflowSettings.backfit_acceleration (a round from where the rounds head)")

@@ -77,15 +77,15 @@ class WorkflowSettings:
         identifier's reach is fitted and the base re-identified on the joints and torques with the
         candidate's share removed (the base otherwise keeps the part of the missing effect it
         absorbed: a load-dependent friction in the torques bends every identified cable parameter).
-        Six rounds stop short where the candidate and the base share a direction: with capstan
-        friction hidden (seed 34, twenty minutes) the elbow's coefficient rose by about 0.0015 per
-        round, from 0.048 after six rounds to 0.062 after nineteen (the generator's: 0.063), while
-        the identified elbow Coulomb force fell from 0.159 to 0.152 N m; the shrink rose from 77.0 %
-        to 87.5 % and the repeating residual that flagged the run unexplained went
-        (``python studies/discrepancy_backfit.py``). The result names the effects whose backfit was
-        still improving at the cap (``DiscrepancyResult.backfit_capped``). The default stays at six:
-        every sweep in the README was measured with it, and thirty rounds cost the tests' analyses
-        1.0 to 1.7 times as much.
+        Where the candidate and the base share a direction the rounds converge slowly: with
+        capstan friction hidden (seed 34, twenty minutes) the elbow's coefficient rose by about
+        0.0015 per round, from 0.048 after six rounds to 0.062 after nineteen (the generator's:
+        0.063), while the identified elbow Coulomb force fell from 0.159 to 0.152 N m; the shrink
+        rose from 77.0 % to 87.5 % and the repeating residual that flagged the six-round run
+        unexplained went (``python studies/discrepancy_backfit.py``). Hence thirty: no backfit of
+        the README's thirty-round sweep (seeds 30-34, every row) reached it. It was six until that
+        sweep, and the sweeps before it were measured with six. The result names the
+        effects whose backfit was still improving at the cap (``DiscrepancyResult.backfit_capped``).
     backfit_tolerance : the rounds stop when one lowers the fit part's weighted residual by less
         than this fraction (or raises it: that round is discarded). 0: they go on while a round
         lowers it at all. The rounds converge slowly where the candidate moves the base a lot: with
@@ -132,7 +132,7 @@ class WorkflowSettings:
     screen_top: int = 3
     bic_weight: float = 1.0
     refit_with: tuple[str, ...] = ()
-    backfit_rounds: int = 6
+    backfit_rounds: int = 30
     backfit_tolerance: float = 0.0
     backfit_acceleration: bool = False
     accept_all: bool = False

@@ -420,9 +420,11 @@ def verdict(named, unexplained: bool) -> str:
     return "unexplained" if unexplained else "none"
 
 
-def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=None, size_factor: float = 1.0):
+def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=None, size_factor: float = 1.0,
+                      backfit_rounds: int | None = None):
     """Hide ``hidden`` in generated data, write it to ``folder/measured.parquet`` (a temporary folder
-    by default) and analyse that file blind (:func:`analyse_measured`).
+    by default) and analyse that file blind (:func:`analyse_measured`, with at most
+    ``backfit_rounds`` backfit rounds when given).
 
     Returns the analysis (result, signals, split) and the generator's parameters.
     """
@@ -431,9 +433,9 @@ def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=
     dataset, generator = generate_measured(hidden, seed, duration, size_factor=size_factor)
     if folder is None:
         with tempfile.TemporaryDirectory() as tmp:
-            result, signals, split = analyse_measured(write_measured(dataset, tmp))
+            result, signals, split = analyse_measured(write_measured(dataset, tmp), backfit_rounds=backfit_rounds)
     else:
-        result, signals, split = analyse_measured(write_measured(dataset, folder))
+        result, signals, split = analyse_measured(write_measured(dataset, folder), backfit_rounds=backfit_rounds)
     return result, signals, split, generator
 
 
