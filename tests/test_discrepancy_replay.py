@@ -251,3 +251,31 @@ def test_a_derivative_window_that_is_not_a_positive_count_of_samples_is_refused(
         MeasuredSignals(time=np.arange(n) * 0.03, truth=np.zeros((n, 1)), reported=np.zeros((n, 1)),
                         drive=np.zeros((n, 1)), torque=None, payload_kg=np.zeros(n), homing=np.zeros(n, dtype=int),
                         joint_names=("a",), units=("rad",), smoothing=window)
+
+
+def test_an_acceleration_given_sets_the_inertial_loads_and_nothing_else(record):
+    signals, model, robot = record
+    gravity, inertial = signals.link_loads(robot)
+    still = signals.with_acceleration(np.zeros_like(signals.truth))
+    still_gravity, still_inertial = still.link_loads(robot)
+    np.testing.assert_array_equal(still_gravity, gravity)
+    np.testing.assert_array_equal(still_inertial, 0.0)
+    # the inertial loads are linear in the acceleration: M(q) (2 q'') = 2 M(q) q''
+    _, doubled = signals.with_acceleration(2.0 * signals.acceleration).link_loads(robot)
+    np.testing.assert_allclose(doubled, 2.0 * inertial, rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(still.velocity, signals.velocity)
+    np.testing.assert_array_equal(still.restarts, signals.restarts)
+    # the cables stretch under the links' inertia, so the replayed joints move with it; the
+    # signals it was made from keep their own acceleration
+    assert np.max(np.abs(model.replay(still, robot).joints - model.replay(signals, robot).joints)) > 1e-7
+    assert np.any(signals.acceleration != 0.0) and signals.link_loads(robot)[1] is inertial
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda a: a[:, :2], r"shape of the joints"),
+    (lambda a: np.where(np.arange(a.shape[0])[:, None] == 3, np.nan, a), "not finite at sample 3"),
+])
+def test_an_acceleration_of_another_shape_or_not_finite_is_refused(record, change, message):
+    signals, _, _ = record
+    with pytest.raises(ValueError, match=message):
+        signals.with_acceleration(change(signals.acceleration))

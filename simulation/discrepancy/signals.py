@@ -287,6 +287,31 @@ class MeasuredSignals:
             loaded_travel=self.loaded_travel[mask],
         )
 
+    def with_acceleration(self, acceleration: np.ndarray) -> "MeasuredSignals":
+        """These signals with the links' acceleration ``acceleration`` ((N, J), rad/s^2 and m/s^2)
+        in place of the causal estimate (:attr:`acceleration`), so that the inertial loads
+        (:meth:`link_loads`, :meth:`payload_loads`) follow it.
+
+        For diagnostics of the replay only (``studies/discrepancy_floor.py`` replays without the
+        inertial loads, or with them from a derivative that looks ahead); the workflow never calls
+        it. The other derivatives are this record's.
+        """
+        acceleration = np.asarray(acceleration, dtype=float)
+        if acceleration.shape != self.truth.shape:
+            raise ValueError(f"the acceleration must have the shape of the joints, {self.truth.shape}, "
+                             f"got {acceleration.shape}")
+        if not np.all(np.isfinite(acceleration)):
+            bad = int(np.argmax(~np.isfinite(acceleration).all(axis=1)))
+            raise ValueError(f"the acceleration is not finite at sample {bad}")
+        copy = replace(self)
+        for name in ("velocity", "drive_velocity", "drive_acceleration", "restarts"):
+            if name in self.__dict__:
+                copy.__dict__[name] = self.__dict__[name]
+        acceleration = acceleration.copy()
+        acceleration.setflags(write=False)
+        copy.__dict__["acceleration"] = acceleration
+        return copy
+
     # ---- construction -------------------------------------------------------------------------
 
     @classmethod

@@ -1,0 +1,257 @@
+"""What bounds the shrink: the held-out residual the starting model leaves with nothing hidden.
+
+A diagnostic that knows the generator, never part of an analysis. For each seed it generates the
+record of ``python studies/discrepancy.py --hidden-effect none --seed S`` (twenty minutes unless
+``--duration`` says otherwise), writes and reads it as the blind analysis does, identifies the
+starting structure on the first half, replays it and prints the held-out residual (the last
+quarter) per joint (deg, deg, mm) and pooled: the workflow's ``gap_before`` with nothing hidden.
+A hidden effect adds to this floor, and a model of the right structure takes at best the effect's
+part of the gap, so the floor is what no analysis of this motion closes. The study takes it apart:
+
+- the ground-truth encoders' own error, from the resolution and noise the generator gives them
+  (uniform quantization error and white noise, independent): what no model can remove;
+- the residual's RMS in frequency bands (0-2 Hz, 2-10 Hz, 10 Hz to half the log rate) beside the
+  share of the encoders' white error in each: where the rest of the floor lies;
+- the replay's inertial loads (the links' mass matrix times a causal estimate of their
+  acceleration from the measured joints, late by about a tenth of a second): the same identified
+  model replayed without them, with them from the motors' acceleration (causal too, from other
+  encoders), and from two estimates that look ahead, which the replay does not allow itself: a
+  centred second difference of the measured joints that skips the sample it is for, and one that
+  weighs it (a diagnostic of what the present sample's own encoder error does through the load, not
+  a replay to use).
+
+With ``--effects``, for each effect hidden on the same seed (at its default size, or
+``--size-factor`` times it), the starting model's held-out gap on that record and ``1 - floor /
+gap``, pooled: the most a model replayed this way could close if the effect left the rest of the
+residual as it is (the effect changes the motion a little, so an analysis may exceed it by a few
+points).
+
+Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
+the seeds of the README's thirty-round table; fifteen twenty-minute records, a few minutes on one
+core).
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from studies.common.discrepancy_runs import DEFAULT_RECORD_S, record_length
+from studies.common.reporting import write_json
+from studies.common.runner import non_negative_int, positive_float, positive_int, script_parser
+
+STUDY = "discrepancy_floor"
+
+BANDS_HZ = ((0.0, 2.0), (2.0, 10.0), (10.0, np.inf))
+"""Frequency bands (Hz) of the floor's breakdown; the last ends at half the log rate. The links
+swing on their cables at about 3 Hz (the replay's docstring), inside the second band."""
+
+TO_REPORT = np.array([np.degrees(1.0), np.degrees(1.0), 1e3])
+"""rad, rad, m to deg, deg, mm."""
+
+
+def sensor_floor(generator) -> np.ndarray:
+    """RMS error per joint of the ground-truth encoders the ``generator`` (a
+    :class:`~simulation.model.parameters.RavenParameters`) simulates (rad, rad, m): quantization to
+    its resolution (uniform, ``q / sqrt(12)``) and its white noise, independent. Zero for a part
+    the generator switches off."""
+    variance = np.zeros(3)
+    if generator.is_enabled("quantization"):
+        variance += np.square(generator.effect("quantization").truth_resolution) / 12.0
+    if generator.is_enabled("noise"):
+        variance += np.square(generator.effect("noise").truth_noise)
+    return np.sqrt(variance)
+
+
+def _band_edges(rate: float, bands) -> list[tuple[float, float]]:
+    if not (np.isfinite(rate) and rate > 0):
+        raise ValueError(f"the sample rate must be a positive number of Hz, got {rate!r}")
+    nyquist = rate / 2.0
+    edges = []
+    for low, high in bands:
+        if not (0.0 <= low < high):
+            raise ValueError(f"a frequency band needs 0 <= low < high, got ({low}, {high})")
+        edges.append((float(low), float(min(high, nyquist))))
+    return edges
+
+
+def band_rms(values: np.ndarray, rate: float, bands=BANDS_HZ) -> np.ndarray:
+    """(J, B) RMS of each column of ``values`` ((N, J), sampled at ``rate`` Hz) about its mean, in
+    each frequency band ``[low, high)`` (Hz; the top band includes half the rate), by the discrete
+    Fourier transform: bands that cover 0 Hz to half the rate split the variance exactly (their
+    squares add up to it)."""
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 2 or values.shape[0] < 2:
+        raise ValueError(f"band_rms needs an (N, J) table with N >= 2, got shape {values.shape}")
+    if not np.all(np.isfinite(values)):
+        raise ValueError("band_rms needs finite values; they hold NaN or inf")
+    edges = _band_edges(rate, bands)
+    n = values.shape[0]
+    spectrum = np.fft.rfft(values - values.mean(axis=0), axis=0)
+    power = np.square(np.abs(spectrum)) / n ** 2
+    power[1:] *= 2.0
+    if n % 2 == 0:
+        power[-1] /= 2.0  # the bin at half the rate has no mirror image
+    frequency = np.fft.rfftfreq(n, d=1.0 / rate)
+    top = frequency[-1]
+    out = np.zeros((values.shape[1], len(edges)))
+    for b, (low, high) in enumerate(edges):
+        inside = (frequency >= low) & ((frequency < high) | ((high >= top) & (frequency <= top)))
+        out[:, b] = np.sqrt(power[inside].sum(axis=0))
+    return out
+
+
+def white_band_rms(rms: np.ndarray, rate: float, bands=BANDS_HZ) -> np.ndarray:
+    """(J, B) the part in each band of a white error of RMS ``rms`` (J,) sampled at ``rate`` Hz:
+    ``rms * sqrt(band width / half the rate)``."""
+    edges = _band_edges(rate, bands)
+    nyquist = rate / 2.0
+    widths = np.array([high - low for low, high in edges])
+    return np.asarray(rms, dtype=float)[:, None] * np.sqrt(widths / nyquist)[None, :]
+
+
+def centred_acceleration(signals, skip_present: bool = False) -> np.ndarray:
+    """Second derivative of the measured joints by centred differences, within each homing: it looks
+    ahead, which the replay's own estimate never does.
+
+    By default ``np.gradient`` twice, ``(q[t+2] - 2 q[t] + q[t-2]) / (4 h^2)`` inside a homing of
+    log period ``h``, which weighs the sample's own reading by ``-1 / (2 h^2)``. With ``skip_present`` the fourth-order stencil
+    ``(q[t+2] + q[t-2] - q[t+1] - q[t-1]) / (3 h^2)`` (``h`` the homing's median period), exact for
+    cubics and blind to the sample itself, so that the sample's encoder error cannot reach its own
+    prediction through the inertial load; the first and last two samples of each homing keep the
+    first form.
+    """
+    truth, time = np.asarray(signals.truth, dtype=float), np.asarray(signals.time, dtype=float)
+    out = np.zeros_like(truth)
+    starts = np.flatnonzero(np.r_[True, signals.homing[1:] != signals.homing[:-1]])
+    for a, b in zip(starts, np.r_[starts[1:], truth.shape[0]]):
+        if b - a < 3:
+            continue
+        q = truth[a:b]
+        out[a:b] = np.gradient(np.gradient(q, time[a:b], axis=0), time[a:b], axis=0)
+        if skip_present and b - a >= 5:
+            h = float(np.median(np.diff(time[a:b])))
+            out[a + 2:b - 2] = (q[4:] + q[:-4] - q[3:-1] - q[1:-3]) / (3.0 * h * h)
+    return out
+
+
+def motor_side_acceleration(signals, coupling: np.ndarray) -> np.ndarray:
+    """The cable ends' acceleration ``A u''`` (``coupling`` A, (3, 3); ``u`` the motor coordinates),
+    causal like the replay's own estimate: the links' acceleration up to that of the cables'
+    stretch, from the motor encoders, whose errors are not the ground truth's."""
+    return signals.drive_acceleration @ np.asarray(coupling, dtype=float).T
+
+
+VARIANTS = ("replay", "no inertial load", "motor-side acceleration", "look-ahead acceleration, present sample skipped",
+            "look-ahead acceleration, present sample included")
+"""The replays :func:`starting_model_residuals` compares: the workflow's, then the links' inertial
+loads left out, from :func:`motor_side_acceleration`, and from :func:`centred_acceleration` with
+and without the present sample."""
+
+
+def pooled(rms: np.ndarray) -> float:
+    """Pooled RMS (deg and mm) of per-joint RMS values in SI (the workflow's pooled gap)."""
+    return float(np.sqrt(np.mean(np.square(np.asarray(rms) * TO_REPORT))))
+
+
+def starting_model_residuals(hidden, seed: int, duration: float, size_factor: float = 1.0,
+                             variants: bool = False) -> dict:
+    """Held-out residual RMS per joint (SI) of the starting structure identified on the first half
+    of the generated record of ``hidden``, replayed as the workflow replays it (``"replay"``) and,
+    with ``variants``, as the other :data:`VARIANTS` replay it; also the held-out residual itself,
+    the log rate and the encoders' floor of the generator."""
+    from kinematics import RavenII
+    from simulation.discrepancy import MeasuredSignals, Split
+    from simulation.discrepancy.fitting import residual
+    from studies.common.discrepancy_runs import (
+        STARTING_STRUCTURE, generate_measured, raven_base_identifier, read_measured, write_measured)
+
+    generated, generator = generate_measured(hidden, seed, duration, size_factor=size_factor)
+    with tempfile.TemporaryDirectory() as folder:
+        dataset = read_measured(write_measured(generated, folder))
+    signals = MeasuredSignals.from_dataset(dataset)
+    split = Split.by_time(signals)
+    robot = RavenII(signals.arm, check_limits=False)
+    model = raven_base_identifier(dataset, split.fit, STARTING_STRUCTURE).identify(STARTING_STRUCTURE, None)
+    replays = {"replay": signals}
+    if variants:
+        from simulation.model.constants import RavenConstants
+
+        coupling = RavenConstants(arm=dataset.arm).nominal_coupling()
+        accelerations = (np.zeros_like(signals.truth), motor_side_acceleration(signals, coupling),
+                         centred_acceleration(signals, skip_present=True), centred_acceleration(signals))
+        replays.update({name: signals.with_acceleration(a) for name, a in zip(VARIANTS[1:], accelerations)})
+    out = {"rate_hz": 1.0 / float(np.median(np.diff(signals.time))), "sensor_floor": sensor_floor(generator)}
+    for name, replayed in replays.items():
+        # offsets fitted on the fit part and carried to the held-out part, as the workflow does
+        offsets = model.offsets + residual(model, replayed, robot, mask=split.fit).joint_offsets
+        held_out = residual(model.with_offsets(offsets), replayed, robot, offsets=np.zeros(3),
+                            mask=split.held_out).joints
+        out[name] = np.sqrt(np.mean(np.square(held_out), axis=0))
+        if name == "replay":
+            out["held_out"] = held_out
+    return out
+
+
+def _numbers(values, digits: int = 5) -> str:
+    return ", ".join(f"{v:.{digits}f}" for v in np.ravel(values))
+
+
+def main(argv: list[str] | None = None) -> dict:
+    from studies.discrepancy import parse_effect_list
+
+    parser = script_parser(STUDY, __doc__)
+    parser.add_argument("--seed", type=non_negative_int, default=30, help="first seed (>= 0)")
+    parser.add_argument("--seeds", type=positive_int, default=5, help="number of seeds from --seed")
+    parser.add_argument("--duration", type=record_length, default=DEFAULT_RECORD_S,
+                        help="record length (s, at most six hours)")
+    parser.add_argument("--effects", type=parse_effect_list, default=(), metavar="NAMES",
+                        help="effects to hide on each seed, separated by commas, for their gap beside the floor")
+    parser.add_argument("--size-factor", type=positive_float, default=1.0, help="the hidden effects' size (x default)")
+    parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
+    args = parser.parse_args(argv)
+
+    effects = tuple(e for e in args.effects if e != "none")
+    labels = [f"{low:g}-{high:g} Hz" if np.isfinite(high) else f"{low:g} Hz-half the rate" for low, high in BANDS_HZ]
+    out = {"seeds": list(range(args.seed, args.seed + args.seeds)), "duration_s": args.duration,
+           "size_factor": args.size_factor, "bands_hz": [list(b) for b in BANDS_HZ], "runs": {}}
+    print(f"held-out residual of the identified starting model, nothing hidden, {args.duration:g} s records "
+          "(deg, deg, mm; pooled in deg and mm)")
+    for seed in out["seeds"]:
+        floor = starting_model_residuals((), seed, args.duration, variants=True)
+        sensors = floor["sensor_floor"]
+        bands = band_rms(floor["held_out"], floor["rate_hz"])
+        white = white_band_rms(sensors, floor["rate_hz"])
+        run = {"floor": floor["replay"].tolist(), "floor_pooled": pooled(floor["replay"]),
+               "sensor_floor": sensors.tolist(), "sensor_floor_pooled": pooled(sensors),
+               "bands": bands.tolist(), "sensor_bands": white.tolist(),
+               "variants": {name: {"floor": floor[name].tolist(), "floor_pooled": pooled(floor[name])}
+                            for name in VARIANTS[1:]},
+               "effects": {}}
+        print(f"seed {seed}: floor {_numbers(floor['replay'] * TO_REPORT)} (pooled {run['floor_pooled']:.5f}); "
+              f"encoders {_numbers(sensors * TO_REPORT)} (pooled {run['sensor_floor_pooled']:.5f})")
+        for j, joint in enumerate(("shoulder", "elbow", "z_ins")):
+            parts = "; ".join(f"{label} {b:.5f} (encoders {w:.5f})"
+                              for label, b, w in zip(labels, bands[j] * TO_REPORT[j], white[j] * TO_REPORT[j]))
+            print(f"    {joint}: {parts}")
+        for name in VARIANTS[1:]:
+            print(f"    replayed with {name}: {_numbers(floor[name] * TO_REPORT)} "
+                  f"(pooled {run['variants'][name]['floor_pooled']:.5f})", flush=True)
+        for effect in effects:
+            gap = starting_model_residuals((effect,), seed, args.duration, size_factor=args.size_factor)["replay"]
+            bound = 1.0 - run["floor_pooled"] / pooled(gap)
+            run["effects"][effect] = {"gap_before": gap.tolist(), "gap_before_pooled": pooled(gap),
+                                      "bound": bound}
+            print(f"    {effect} hidden: starting model's held-out gap {_numbers(gap * TO_REPORT)} (pooled "
+                  f"{pooled(gap):.5f}); 1 - floor / gap = {100 * bound:.1f} %", flush=True)
+        out["runs"][seed] = run
+    if args.out is not None:
+        write_json(args.out, out)
+    return out
+
+
+if __name__ == "__main__":
+    sys.exit(0 if main() else 1)

@@ -1,0 +1,110 @@
+"""The floor study's breakdown: frequency bands that split the variance, the encoders' own error,
+a look-ahead acceleration kept within each homing, and its command line on a short record."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from simulation.model.parameters import RavenParameters
+from studies.discrepancy_floor import (BANDS_HZ, VARIANTS, band_rms, centred_acceleration, main, motor_side_acceleration,
+                                       pooled, sensor_floor, white_band_rms)
+
+
+@pytest.mark.parametrize("n", [1000, 1001])
+def test_bands_from_zero_to_half_the_rate_split_the_variance_exactly(n):
+    values = np.random.default_rng(4).normal(size=(n, 3)) * [1.0, 2.0, 0.5] + [3.0, -1.0, 0.0]
+    bands = band_rms(values, 30.0)
+    np.testing.assert_allclose(np.sum(bands ** 2, axis=1), np.var(values, axis=0), rtol=1e-12)
+
+
+def test_a_sinusoid_lies_in_the_band_of_its_frequency_with_its_rms():
+    time = np.arange(600) / 30.0  # 20 s: a whole number of 5 Hz cycles
+    values = np.column_stack([0.3 * np.sin(2 * np.pi * 5.0 * time), 0.1 * np.cos(2 * np.pi * 0.5 * time)])
+    bands = band_rms(values, 30.0)
+    np.testing.assert_allclose(bands[0], [0.0, 0.3 / np.sqrt(2), 0.0], atol=1e-12)
+    np.testing.assert_allclose(bands[1], [0.1 / np.sqrt(2), 0.0, 0.0], atol=1e-12)
+
+
+def test_a_white_error_spreads_over_the_bands_by_their_widths():
+    white = white_band_rms(np.array([2.0, 1.0]), 30.0)
+    np.testing.assert_allclose(np.sum(white ** 2, axis=1), [4.0, 1.0])
+    np.testing.assert_allclose(white[0], 2.0 * np.sqrt(np.array([2.0, 8.0, 5.0]) / 15.0))
+    # and long white noise shows it (a fixed draw of 60 000 samples: each band within 2 %)
+    noise = np.random.default_rng(7).normal(size=(60000, 1))
+    np.testing.assert_allclose(band_rms(noise, 30.0)[0], white_band_rms(np.ones(1), 30.0)[0], rtol=0.02)
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: band_rms(np.array([[0.0], [np.nan], [1.0]]), 30.0), "finite"),
+    (lambda: band_rms(np.zeros(10), 30.0), "(N, J) table"),
+    (lambda: band_rms(np.zeros((10, 1)), 0.0), "sample rate"),
+    (lambda: band_rms(np.zeros((10, 1)), 30.0, bands=((2.0, 1.0),)), "0 <= low < high"),
+    (lambda: white_band_rms(np.ones(1), -30.0), "sample rate"),
+])
+def test_bad_input_to_the_bands_is_refused_with_the_problem_named(call, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        call()
+
+
+def test_the_encoders_floor_is_their_quantization_and_noise_and_nothing_where_they_are_off():
+    params = RavenParameters()
+    resolution = params.effect("quantization").truth_resolution
+    noise = params.effect("noise").truth_noise
+    np.testing.assert_allclose(sensor_floor(params), np.sqrt(resolution ** 2 / 12 + noise ** 2))
+    # the quantization part is what rounding a slow ramp to the resolution leaves
+    ramp = np.linspace(0.0, 1000.0 * resolution[0], 200001)
+    rounded = np.round(ramp / resolution[0]) * resolution[0]
+    assert np.sqrt(np.mean((rounded - ramp) ** 2)) == pytest.approx(resolution[0] / np.sqrt(12), rel=1e-3)
+    np.testing.assert_allclose(sensor_floor(params.without("noise")), resolution / np.sqrt(12))
+    np.testing.assert_array_equal(sensor_floor(params.without("noise", "quantization")), np.zeros(3))
+    # pooled in degrees and millimetres, as the workflow pools its gaps
+    assert pooled([np.radians(3e-3), np.radians(4e-3), 5e-6]) == pytest.approx(np.sqrt((9 + 16 + 25) / 3) * 1e-3)
+
+
+@pytest.mark.parametrize("skip_present", [False, True])
+def test_the_look_ahead_acceleration_is_exact_on_parabolas_and_stays_within_each_homing(skip_present):
+    time = np.arange(40) / 30.0
+    truth = np.column_stack([0.5 * 2.0 * time ** 2, -0.5 * 0.4 * time ** 2, 0.01 * time])
+    truth[20:] += [0.3, -0.2, 0.01]  # re-registered encoders jump at the second homing
+    homing = np.r_[np.zeros(20, int), np.ones(20, int)]
+    signals = SimpleNamespace(truth=truth, time=time, homing=homing)
+    acceleration = centred_acceleration(signals, skip_present=skip_present)
+    inner = np.r_[2:18, 22:38]
+    np.testing.assert_allclose(acceleration[inner], np.tile([2.0, -0.4, 0.0], (inner.size, 1)), atol=1e-9)
+    assert np.all(np.abs(acceleration) < 3.0)  # no spike where the encoders jump
+    # a reading's own error reaches its own acceleration only where the present sample is weighed
+    bumped = SimpleNamespace(truth=truth + np.where(np.arange(40)[:, None] == 10, 1e-4, 0.0), time=time, homing=homing)
+    change = centred_acceleration(bumped, skip_present=skip_present) - acceleration
+    if skip_present:
+        assert change[10, 0] == pytest.approx(0.0, abs=1e-9)
+        assert change[8, 0] == pytest.approx(1e-4 * 30.0 ** 2 / 3, rel=1e-9)
+    else:
+        assert change[10, 0] == pytest.approx(-1e-4 * 30.0 ** 2 / 2, rel=1e-9)
+
+
+def test_the_motor_side_acceleration_is_the_coupled_acceleration_of_the_motors():
+    coupling = np.array([[1.0, 0.0, 0.0], [-0.15, 1.0, 0.0], [0.008, -0.008, 1.0]])
+    drive = np.random.default_rng(2).normal(size=(50, 3))
+    np.testing.assert_allclose(motor_side_acceleration(SimpleNamespace(drive_acceleration=drive), coupling),
+                               np.einsum("ij,nj->ni", coupling, drive), rtol=1e-12)
+
+
+def test_the_command_line_prints_and_writes_the_floor_and_an_effects_share(tmp_path, capsys):
+    out = tmp_path / "floor.json"
+    result = main(["--seed", "3", "--seeds", "1", "--duration", "60", "--effects", "hysteresis", "--out", str(out)])
+    written = json.loads(out.read_text())
+    run = written["runs"]["3"]
+    assert written["bands_hz"][0] == list(BANDS_HZ[0]) and result["seeds"] == [3]
+    # the replayed starting model cannot do better than the encoders it is compared with
+    assert run["floor_pooled"] > run["sensor_floor_pooled"] > 0
+    # a hidden hysteresis adds to the floor, and the bound is the share of its gap above it
+    effect = run["effects"]["hysteresis"]
+    assert effect["gap_before_pooled"] > run["floor_pooled"]
+    assert effect["bound"] == pytest.approx(1 - run["floor_pooled"] / effect["gap_before_pooled"])
+    text = capsys.readouterr().out
+    assert "seed 3: floor" in text and "hysteresis hidden" in text
+    assert set(run["variants"]) == set(VARIANTS[1:]) and all(f"replayed with {v}:" in text for v in VARIANTS[1:])
