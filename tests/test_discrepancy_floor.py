@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from simulation.model.parameters import RavenParameters
-from studies.discrepancy_floor import (BANDS_HZ, VARIANTS, band_rms, centred_acceleration, main, motor_side_acceleration,
-                                       pooled, sensor_floor, white_band_rms)
+from studies.discrepancy_floor import (BANDS_HZ, VARIANTS, band_rms, centred_acceleration, identification_derivatives,
+                                       main, motor_side_acceleration, pooled, sensor_floor, white_band_rms)
 
 
 @pytest.mark.parametrize("n", [1000, 1001])
@@ -84,6 +84,17 @@ def test_the_look_ahead_acceleration_is_exact_on_parabolas_and_stays_within_each
         assert change[8, 0] == pytest.approx(1e-4 * 30.0 ** 2 / 3, rel=1e-9)
     else:
         assert change[10, 0] == pytest.approx(-1e-4 * 30.0 ** 2 / 2, rel=1e-9)
+
+
+def test_the_identifications_derivatives_are_exact_on_parabolas_within_each_homing():
+    time = np.arange(80) / 30.0
+    truth = np.column_stack([0.5 * 2.0 * time ** 2, -0.2 * time ** 2 + 0.1 * time, 0.01 * time])
+    truth[40:] += [0.3, -0.2, 0.01]
+    homing = np.r_[np.zeros(40, int), np.ones(40, int)]
+    velocity, acceleration = identification_derivatives(SimpleNamespace(truth=truth, time=time, homing=homing))
+    np.testing.assert_allclose(velocity, np.column_stack([2.0 * time, -0.4 * time + 0.1, np.full(80, 0.01)]),
+                               atol=1e-9)
+    np.testing.assert_allclose(acceleration, np.tile([2.0, -0.4, 0.0], (80, 1)), atol=1e-8)
 
 
 def test_the_motor_side_acceleration_is_the_coupled_acceleration_of_the_motors():

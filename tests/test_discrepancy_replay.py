@@ -253,15 +253,15 @@ def test_a_derivative_window_that_is_not_a_positive_count_of_samples_is_refused(
                         joint_names=("a",), units=("rad",), smoothing=window)
 
 
-def test_an_acceleration_given_sets_the_inertial_loads_and_nothing_else(record):
+def test_derivatives_given_set_the_viscous_and_inertial_loads_and_nothing_else(record):
     signals, model, robot = record
     gravity, inertial = signals.link_loads(robot)
-    still = signals.with_acceleration(np.zeros_like(signals.truth))
+    still = signals.with_derivatives(acceleration=np.zeros_like(signals.truth))
     still_gravity, still_inertial = still.link_loads(robot)
     np.testing.assert_array_equal(still_gravity, gravity)
     np.testing.assert_array_equal(still_inertial, 0.0)
     # the inertial loads are linear in the acceleration: M(q) (2 q'') = 2 M(q) q''
-    _, doubled = signals.with_acceleration(2.0 * signals.acceleration).link_loads(robot)
+    _, doubled = signals.with_derivatives(acceleration=2.0 * signals.acceleration).link_loads(robot)
     np.testing.assert_allclose(doubled, 2.0 * inertial, rtol=1e-12, atol=1e-15)
     np.testing.assert_array_equal(still.velocity, signals.velocity)
     np.testing.assert_array_equal(still.restarts, signals.restarts)
@@ -269,13 +269,22 @@ def test_an_acceleration_given_sets_the_inertial_loads_and_nothing_else(record):
     # signals it was made from keep their own acceleration
     assert np.max(np.abs(model.replay(still, robot).joints - model.replay(signals, robot).joints)) > 1e-7
     assert np.any(signals.acceleration != 0.0) and signals.link_loads(robot)[1] is inertial
+    # a velocity given moves the viscous load (coefficient times velocity) and keeps the acceleration
+    faster = signals.with_derivatives(velocity=2.0 * signals.velocity)
+    np.testing.assert_array_equal(faster.acceleration, signals.acceleration)
+    np.testing.assert_array_equal(faster.travel, signals.travel)
+    viscous = model.params.effect("viscous_friction").coefficient
+    rigid = RavenModel(model.params.without("cable_stretch"), np.zeros(3))
+    np.testing.assert_allclose(rigid.replay(faster, robot).tension - rigid.replay(signals, robot).tension,
+                               viscous * signals.velocity, rtol=1e-9, atol=1e-12)
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda a: a[:, :2], r"shape of the joints"),
-    (lambda a: np.where(np.arange(a.shape[0])[:, None] == 3, np.nan, a), "not finite at sample 3"),
+@pytest.mark.parametrize("name, change, message", [
+    ("acceleration", lambda a: a[:, :2], r"acceleration must have the shape of the joints"),
+    ("velocity", lambda a: np.where(np.arange(a.shape[0])[:, None] == 3, np.nan, a), "velocity is not finite at sample 3"),
+    ("velocity", None, "needs a velocity, an acceleration or both"),
 ])
-def test_an_acceleration_of_another_shape_or_not_finite_is_refused(record, change, message):
+def test_derivatives_of_another_shape_or_not_finite_are_refused(record, name, change, message):
     signals, _, _ = record
     with pytest.raises(ValueError, match=message):
-        signals.with_acceleration(change(signals.acceleration))
+        signals.with_derivatives(**({} if change is None else {name: change(getattr(signals, name))}))

@@ -287,29 +287,35 @@ class MeasuredSignals:
             loaded_travel=self.loaded_travel[mask],
         )
 
-    def with_acceleration(self, acceleration: np.ndarray) -> "MeasuredSignals":
-        """These signals with the links' acceleration ``acceleration`` ((N, J), rad/s^2 and m/s^2)
-        in place of the causal estimate (:attr:`acceleration`), so that the inertial loads
-        (:meth:`link_loads`, :meth:`payload_loads`) follow it.
+    def with_derivatives(self, *, velocity: np.ndarray | None = None,
+                         acceleration: np.ndarray | None = None) -> "MeasuredSignals":
+        """These signals with the links' ``velocity`` and/or ``acceleration`` ((N, J), SI) in place of
+        the causal estimates (:attr:`velocity`, :attr:`acceleration`), so that the viscous and the
+        inertial loads of a replay follow them; one not given stays this record's (an acceleration
+        is not derived again from a velocity given). The accumulated travel stays this record's.
 
         For diagnostics of the replay only (``studies/discrepancy_floor.py`` replays without the
-        inertial loads, or with them from a derivative that looks ahead); the workflow never calls
-        it. The other derivatives are this record's.
+        inertial loads, or with derivatives that look ahead); the workflow never calls it.
         """
-        acceleration = np.asarray(acceleration, dtype=float)
-        if acceleration.shape != self.truth.shape:
-            raise ValueError(f"the acceleration must have the shape of the joints, {self.truth.shape}, "
-                             f"got {acceleration.shape}")
-        if not np.all(np.isfinite(acceleration)):
-            bad = int(np.argmax(~np.isfinite(acceleration).all(axis=1)))
-            raise ValueError(f"the acceleration is not finite at sample {bad}")
+        given = {name: value for name, value in (("velocity", velocity), ("acceleration", acceleration))
+                 if value is not None}
+        if not given:
+            raise ValueError("with_derivatives needs a velocity, an acceleration or both")
+        for name, value in list(given.items()):
+            value = np.array(value, dtype=float)
+            if value.shape != self.truth.shape:
+                raise ValueError(f"the {name} must have the shape of the joints, {self.truth.shape}, got {value.shape}")
+            if not np.all(np.isfinite(value)):
+                bad = int(np.argmax(~np.isfinite(value).all(axis=1)))
+                raise ValueError(f"the {name} is not finite at sample {bad}")
+            value.setflags(write=False)
+            given[name] = value
+        kept = {"velocity": self.velocity, "acceleration": self.acceleration}
         copy = replace(self)
-        for name in ("velocity", "drive_velocity", "drive_acceleration", "restarts"):
+        for name in ("drive_velocity", "drive_acceleration", "restarts"):
             if name in self.__dict__:
                 copy.__dict__[name] = self.__dict__[name]
-        acceleration = acceleration.copy()
-        acceleration.setflags(write=False)
-        copy.__dict__["acceleration"] = acceleration
+        copy.__dict__.update({**kept, **given})
         return copy
 
     # ---- construction -------------------------------------------------------------------------
