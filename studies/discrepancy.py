@@ -27,7 +27,9 @@ library lacks), logged at the robot's 30 Hz unless ``--log-rate`` says otherwise
 ``DIR/measured.parquet`` and runs
 exactly the ``--measured`` analysis on that file. Only then, knowing the generator, it adds to the
 report the true parameters beside the fitted ones and the oracle: the generator's true structure
-fitted to the same fit part, whose held-out gap is what a model of the right structure closes. An
+fitted to the same fit part, whose held-out gap is what a model of the right structure closes, and
+the floor: the gap the starting model leaves on the same seed's record with nothing hidden, and the
+share of this record's gap above it (``floor_gap``, ``floor_bound``). An
 effect of the starting structure cannot be hidden (the data would not change): ``--ablate NAME``
 instead generates with the full structure and analyses from the structure without NAME, with NAME
 among the candidates; that is an ablation, and its report says so.
@@ -64,6 +66,8 @@ from studies.common.discrepancy_runs import (
     analyse_measured,
     analysis_settings,
     check_hidden,
+    floor_bound,
+    floor_gap,
     generate_measured,
     largest_share,
     oracle,
@@ -502,11 +506,14 @@ def _repeats(shares) -> bool:
 
 def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,
                             result: DiscrepancyResult, size_factor: float = 1.0, log_rate: float = LOG_RATE) -> dict:
-    """After the blind analysis: add the hidden effect, the true parameters and the oracle (with the
-    analysis's backfit cap) to the report."""
+    """After the blind analysis: add the hidden effect, the true parameters, the oracle (with the
+    analysis's backfit cap) and the floor (:func:`~studies.common.discrepancy_runs.floor_gap`: the
+    gap the starting model leaves on the same seed's record with nothing hidden) to the report."""
     report_path = Path(out) / "report.json"
     document = json.loads(report_path.read_text())
     fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds)
+    floor = result.gap_before if not hidden else floor_gap(seed, duration, log_rate_options(log_rate))
+    bound = floor_bound(floor, result.gap_before, result.units)
     to_report = report_scale(result.units)
     before = pooled_rmse(result.residual_before.joints, result.units)
     oracle_after = float(np.sqrt(np.mean(np.square(fit.gap_after * to_report))))
@@ -536,6 +543,8 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "fraction_of_oracle_shrink": fraction,
         "oracle_residual_structure": _structure_list(fit),
         "oracle_backfit_capped": list(fit.backfit_capped),
+        "floor_gap": [float(v) for v in floor],
+        "floor_bound": bound,
     })
     write_json(report_path, document)
     units = _unit_names(result.units)
@@ -566,6 +575,12 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
             "(flagged at "
             f"{100 * WorkflowSettings().structure_share:.0f} %): the oracle's shows what a model of the right "
             "structure, fitted to this record, still leaves"]),
+        ("- floor: nothing is hidden, so the starting model's held-out gap is the floor under every analysis of "
+         "this motion" if not hidden else
+         f"- floor: the same seed's record with nothing hidden leaves a held-out gap of "
+         f"{pooled_rmse(np.asarray(floor)[None, :], result.units):.5f} (pooled, deg and mm) after the starting "
+         f"model, against {before:.5f} here: about {100 * bound:.1f} % of this gap is the most a model replayed "
+         "this way closes (`python studies/discrepancy_floor.py`)"),
         "",
         "Named effects, fitted beside true values:",
         "",
@@ -696,6 +711,15 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
     matrix = {e: {c: sum(1 for r in runs if r["hidden"] == e and r["named_first"] == c) for c in columns}
               for e in effects}
     rows = [[e] + [matrix[e][c] for c in columns] for e in effects]
+    floors = {r["seed"]: r["gap_before"] for r in runs if r["hidden"] == "none"}
+
+    def bound_of(run) -> float | None:
+        # the floor: what the starting model leaves on the same seed's record with nothing hidden
+        floor = floors.get(run["seed"])
+        if floor is None or run["hidden"] == "none":
+            return None
+        return max(0.0, 1.0 - floor / run["gap_before"]) if run["gap_before"] > 0 else 0.0
+
     summary_rows = []
     for e in effects:
         mine = [r for r in runs if r["hidden"] == e]
@@ -712,16 +736,21 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
         cut = sum(1 for r in mine if r.get("backfit_capped"))
         notes += [f"the backfit cut by its cap in {cut}"] if cut else []
         flags = f" ({'; '.join(notes)})" if notes else ""
+        bounds = [bound_of(r) for r in mine]
+        bounds = np.array(bounds, dtype=float) * 100 if None not in bounds else None
         summary_rows.append([e, f"{named} of {len(mine)}" + flags,
                              f"{np.mean(gap):.4f}",
                              f"{np.mean(shrink):.1f} [{np.min(shrink):.1f}, {np.max(shrink):.1f}]",
                              f"{np.mean(closable):.1f} [{np.min(closable):.1f}, {np.max(closable):.1f}]",
+                             "-" if bounds is None else
+                             f"{np.mean(bounds):.1f} [{np.min(bounds):.1f}, {np.max(bounds):.1f}]",
                              "-" if e == "none" else ("yes" if goal else "no")])
     run_rows = [[r["hidden"], str(r["seed"]), verdict(r["named"], r["unexplained"]),
                  "; ".join(f"{k} = {', '.join(v)}" for k, v in r["equivalent"].items()),
                  "; ".join(f"{k} ~ {n} ({d:.2f})" for k, v in r.get("rivals", {}).items() for n, d in v.items()),
                  r["gap_before"],
                  100 * r["shrink"], 100 * r["oracle_shrink"],
+                 "-" if bound_of(r) is None else f"{100 * bound_of(r):.1f}",
                  _share_text(r.get("residual_structure")), _share_text(r.get("oracle_residual_structure")),
                  "-" if r.get("command_shrink") is None else f"{100 * r['command_shrink']:.1f}"]
                 for r in runs]
@@ -742,9 +771,13 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
         "and still left a residual that repeats, and in how many of them the oracle's residual repeats as well (a "
         "model of the right structure fitted to that record leaves it too); 'the backfit cut by its cap': runs "
         "whose named effect's backfit was still improving at its last allowed round (its fit may stop short). "
+        "Floor bound: 1 - the gap the starting model leaves on the same seed's record with nothing hidden "
+        "(its 'none' run) / this gap, both pooled: about the most a model replayed this way closes ('-' without "
+        "the 'none' runs of those seeds). "
         "Goal: named first on at least 4 of 5 seeds "
         "and, on every seed, a shrink of at least 50 % or 80 % of the oracle's.", "",
-        markdown_table(["hidden", "named first", "gap", "shrink %", "oracle shrink %", "goal met"], summary_rows), "",
+        markdown_table(["hidden", "named first", "gap", "shrink %", "oracle shrink %", "floor bound %", "goal met"],
+                       summary_rows), "",
         "## Confusion matrix", "",
         "A row is the hidden effect, a column the first effect the workflow named ('none': nothing named; "
         "'unexplained': nothing named but a residual left above the floor, or one that repeats; a run that "
@@ -762,7 +795,8 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
         "gap between the logged commands and the controller's law the named effects close (only a "
         "controller candidate closes any).", "",
         markdown_table(["hidden", "seed", "named", "indistinguishable", "rivals (BIC higher by)", "gap", "shrink %",
-                        "oracle shrink %", "structure %", "oracle structure %", "command shrink %"], run_rows,
+                        "oracle shrink %", "floor bound %", "structure %", "oracle structure %", "command shrink %"],
+                       run_rows,
                        digits=4),
         ""])
     out.mkdir(parents=True, exist_ok=True)

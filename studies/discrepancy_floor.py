@@ -187,38 +187,25 @@ def starting_model_residuals(hidden, seed: int, duration: float, size_factor: fl
     of the generated record of ``hidden``, replayed as the workflow replays it (``"replay"``) and,
     with ``variants``, as the other :data:`VARIANTS` replay it; also the held-out residual itself,
     the log rate and the encoders' floor of the generator."""
-    from kinematics import RavenII
-    from simulation.discrepancy import MeasuredSignals, Split
-    from simulation.discrepancy.fitting import residual
+    from simulation.model.constants import RavenConstants
     from studies.common.discrepancy_runs import (
-        STARTING_STRUCTURE, generate_measured, raven_base_identifier, read_measured, write_measured)
+        generate_measured, held_out_gap, held_out_residual, read_measured, starting_model_on, write_measured)
 
     generated, generator = generate_measured(hidden, seed, duration, size_factor=size_factor)
     with tempfile.TemporaryDirectory() as folder:
         dataset = read_measured(write_measured(generated, folder))
-    signals = MeasuredSignals.from_dataset(dataset)
-    split = Split.by_time(signals)
-    robot = RavenII(signals.arm, check_limits=False)
-    model = raven_base_identifier(dataset, split.fit, STARTING_STRUCTURE).identify(STARTING_STRUCTURE, None)
-    replays = {"replay": signals}
+    signals, split, robot, model = starting_model_on(dataset)
+    held_out = held_out_residual(model, signals, split, robot)
+    out = {"rate_hz": 1.0 / float(np.median(np.diff(signals.time))), "sensor_floor": sensor_floor(generator),
+           "held_out": held_out, "replay": np.sqrt(np.mean(np.square(held_out), axis=0))}
     if variants:
-        from simulation.model.constants import RavenConstants
-
         coupling = RavenConstants(arm=dataset.arm).nominal_coupling()
         accelerations = (np.zeros_like(signals.truth), motor_side_acceleration(signals, coupling),
                          centred_acceleration(signals, skip_present=True), centred_acceleration(signals))
-        replays.update({name: signals.with_derivatives(acceleration=a) for name, a in zip(VARIANTS[1:], accelerations)})
+        replays = {name: signals.with_derivatives(acceleration=a) for name, a in zip(VARIANTS[1:], accelerations)}
         velocity, acceleration = identification_derivatives(signals)
         replays[VARIANTS[-1]] = signals.with_derivatives(velocity=velocity, acceleration=acceleration)
-    out = {"rate_hz": 1.0 / float(np.median(np.diff(signals.time))), "sensor_floor": sensor_floor(generator)}
-    for name, replayed in replays.items():
-        # offsets fitted on the fit part and carried to the held-out part, as the workflow does
-        offsets = model.offsets + residual(model, replayed, robot, mask=split.fit).joint_offsets
-        held_out = residual(model.with_offsets(offsets), replayed, robot, offsets=np.zeros(3),
-                            mask=split.held_out).joints
-        out[name] = np.sqrt(np.mean(np.square(held_out), axis=0))
-        if name == "replay":
-            out["held_out"] = held_out
+        out.update({name: held_out_gap(model, replayed, split, robot) for name, replayed in replays.items()})
     return out
 
 
@@ -227,6 +214,8 @@ def _numbers(values, digits: int = 5) -> str:
 
 
 def main(argv: list[str] | None = None) -> dict:
+    from simulation.discrepancy.signals import RAVEN_UNITS
+    from studies.common.discrepancy_runs import floor_bound
     from studies.discrepancy import parse_effect_list
 
     parser = script_parser(STUDY, __doc__)
@@ -268,7 +257,7 @@ def main(argv: list[str] | None = None) -> dict:
                   f"(pooled {run['variants'][name]['floor_pooled']:.5f})", flush=True)
         for effect in effects:
             gap = starting_model_residuals((effect,), seed, args.duration, size_factor=args.size_factor)["replay"]
-            bound = 1.0 - run["floor_pooled"] / pooled(gap)
+            bound = floor_bound(floor["replay"], gap, RAVEN_UNITS)
             run["effects"][effect] = {"gap_before": gap.tolist(), "gap_before_pooled": pooled(gap),
                                       "bound": bound}
             print(f"    {effect} hidden: starting model's held-out gap {_numbers(gap * TO_REPORT)} (pooled "

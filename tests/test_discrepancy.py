@@ -169,6 +169,8 @@ def test_nothing_hidden_names_nothing(cli_runs):
     # the identified nominal model already reproduces the data to the encoders' resolution
     assert np.all(np.array(report["gap_before"]) < np.array([2e-4, 2e-4, 1e-5])), report["gap_before"]
     assert report["hidden_effect"] == [] and report["oracle_shrink"] == pytest.approx(0.0)
+    # nothing hidden: the starting model's gap is the floor itself, and nothing is left above it
+    assert report["floor_gap"] == report["gap_before"] and report["floor_bound"] == 0.0
     # the controller replay ran on the logged commands and found the controller's own law
     assert report["controller"]["named"] is False
     assert max(abs(v) for v in report["controller"]["scale_error"]) < 0.005
@@ -194,6 +196,10 @@ def test_an_effect_missing_from_the_library_is_unexplained_with_a_signature(cli_
     assert "capstan_runout" in report["oracle_fitted_parameters"]
     share = WorkflowSettings().structure_share
     assert max(report["oracle_residual_structure"]) < share <= max(report["residual_structure"])
+    # the floor: the same seed's record with nothing hidden leaves less than this one, and the oracle
+    # closes no more than the part above it
+    assert len(report["floor_gap"]) == 3 and 0.0 < report["floor_bound"] < 1.0
+    assert report["oracle_shrink"] <= report["floor_bound"]
 
 
 def test_generation_and_analysis_meet_only_through_the_file(cli_runs, tmp_path):

@@ -79,3 +79,26 @@ def test_parts_that_cannot_be_compared_are_refused_in_one_line(tmp_path, capsys,
     assert exit_info.value.code == 2
     assert len(lines) == 1 and named in lines[0], lines
     assert not (tmp_path / "m").exists()
+
+
+def _cells(table: str, first: str) -> list[str]:
+    line = next(row for row in table.splitlines() if row.startswith(f"| {first} |"))
+    return [cell.strip() for cell in line.strip("|").split("|")]
+
+
+def test_the_floor_bound_is_what_the_same_seeds_none_run_leaves_of_each_gap(tmp_path):
+    runs = [dict(_run("none", 0), gap_before=0.003), dict(_run("none", 1), gap_before=0.004),
+            dict(_run("backlash", 0, ("backlash",), 0.45, 0.45), gap_before=0.006),
+            dict(_run("backlash", 1, ("backlash",), 0.55, 0.55), gap_before=0.010),
+            dict(_run("hysteresis", 2, ("hysteresis",), 0.70, 0.70), gap_before=0.010),
+            dict(_run("drift", 0, ("drift",), 0.0, 0.0), gap_before=0.002)]
+    summarise_sweep(runs, 1200.0, tmp_path)
+    text = (tmp_path / "confusion.md").read_text()
+    table = _summary_table(text)
+    # 1 - 0.003 / 0.006 and 1 - 0.004 / 0.010; no bound without the seed's none run; never below 0
+    assert _cells(table, "backlash")[5] == "55.0 [50.0, 60.0]"
+    assert _cells(table, "hysteresis")[5] == "-" and _cells(table, "none")[5] == "-"
+    assert _cells(table, "drift")[5] == "0.0 [0.0, 0.0]"
+    runs_table = text.split("## Runs")[1]
+    backlash_rows = [row for row in runs_table.splitlines() if row.startswith("| backlash |")]
+    assert [row.strip("|").split("|")[8].strip() for row in backlash_rows] == ["50.0", "60.0"]

@@ -461,6 +461,62 @@ def run_ablation(name: str, seed: int = 0, duration: float = 240.0, folder=None)
     return result, signals, split, generator
 
 
+def starting_model_on(dataset):
+    """Step 0 of the blind analysis on a RAVEN-II ``dataset``: its signals, its split in time, the
+    arm's kinematics and the starting structure identified on the fit part (:func:`run_on_raven_dataset`
+    then fits the offsets on the fit part too, as :func:`held_out_gap` does)."""
+    from kinematics import RavenII
+
+    signals = MeasuredSignals.from_dataset(dataset)
+    split = Split.by_time(signals)
+    model = raven_base_identifier(dataset, split.fit).identify(STARTING_STRUCTURE, None)
+    return signals, split, RavenII(signals.arm, check_limits=False), model
+
+
+def held_out_residual(model, signals: MeasuredSignals, split: Split, robot) -> np.ndarray:
+    """(N_held_out, J) joint residual (SI) of ``model`` on the held-out part, with its offsets fitted
+    on the fit part, as the workflow scores its starting model."""
+    from simulation.discrepancy.fitting import residual
+
+    offsets = model.offsets + residual(model, signals, robot, mask=split.fit).joint_offsets
+    return residual(model.with_offsets(offsets), signals, robot, offsets=np.zeros(signals.n_joints),
+                    mask=split.held_out).joints
+
+
+def held_out_gap(model, signals: MeasuredSignals, split: Split, robot) -> np.ndarray:
+    """RMS per joint (SI) of :func:`held_out_residual`: the workflow's ``gap_before`` for the
+    starting model."""
+    return np.sqrt(np.mean(np.square(held_out_residual(model, signals, split, robot)), axis=0))
+
+
+def floor_gap(seed: int, duration: float, robot_options: dict | None = None) -> np.ndarray:
+    """The floor under an analysis of seed ``seed``'s motion: the held-out gap per joint (SI) the
+    identified starting model leaves on the record of the same seed and length with nothing hidden,
+    written and read as the blind analysis reads its file. A hidden effect adds to it; a model of
+    the right structure takes at best the effect's part (``studies/discrepancy_floor.py``). The
+    record with nothing hidden has the same commanded motion, without the re-homing or the payload
+    some hidden effects bring."""
+    import tempfile
+
+    dataset, _ = generate_measured((), seed, duration, robot_options=robot_options)
+    with tempfile.TemporaryDirectory() as folder:
+        dataset = read_measured(write_measured(dataset, folder))
+    signals, split, robot, model = starting_model_on(dataset)
+    return held_out_gap(model, signals, split, robot)
+
+
+def floor_bound(floor, gap_before, units) -> float:
+    """``1 - floor / gap``, each pooled in degrees and millimetres (per-joint SI gaps in ``units``):
+    about the most of ``gap_before`` a model replayed this way closes (0 where the gap is at the
+    floor or below it)."""
+    from simulation.discrepancy.signals import report_scale
+
+    scale = report_scale(units)
+    gap = float(np.sqrt(np.mean(np.square(np.asarray(gap_before) * scale))))
+    under = float(np.sqrt(np.mean(np.square(np.asarray(floor) * scale))))
+    return max(0.0, 1.0 - under / gap) if gap > 0 else 0.0
+
+
 def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rounds,
            backfit_acceleration: bool = False) -> DiscrepancyResult:
     """The generator's true structure fitted to the same fit part of the same file.
