@@ -91,13 +91,17 @@ def test_the_floor_bound_is_what_the_same_seeds_none_run_leaves_of_each_gap(tmp_
             dict(_run("backlash", 0, ("backlash",), 0.45, 0.45), gap_before=0.006),
             dict(_run("backlash", 1, ("backlash",), 0.55, 0.55), gap_before=0.010),
             dict(_run("hysteresis", 2, ("hysteresis",), 0.70, 0.70), gap_before=0.010),
+            dict(_run("hysteresis", 3, ("hysteresis",), 0.70, 0.70), gap_before=0.010, floor=0.002),
             dict(_run("drift", 0, ("drift",), 0.0, 0.0), gap_before=0.002)]
     summarise_sweep(runs, 1200.0, tmp_path)
     text = (tmp_path / "confusion.md").read_text()
     table = _summary_table(text)
-    # 1 - 0.003 / 0.006 and 1 - 0.004 / 0.010; no bound without the seed's none run; never below 0
+    # 1 - 0.003 / 0.006 and 1 - 0.004 / 0.010; never below 0; a run that measured its floor uses it,
+    # and a run recorded without one and without its seed's none run has no bound
     assert _cells(table, "backlash")[5] == "55.0 [50.0, 60.0]"
     assert _cells(table, "hysteresis")[5] == "-" and _cells(table, "none")[5] == "-"
+    hysteresis_rows = [row for row in text.split("## Runs")[1].splitlines() if row.startswith("| hysteresis |")]
+    assert [row.strip("|").split("|")[8].strip() for row in hysteresis_rows] == ["-", "80.0"]
     assert _cells(table, "drift")[5] == "0.0 [0.0, 0.0]"
     runs_table = text.split("## Runs")[1]
     backlash_rows = [row for row in runs_table.splitlines() if row.startswith("| backlash |")]
