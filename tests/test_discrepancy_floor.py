@@ -119,3 +119,24 @@ def test_the_command_line_prints_and_writes_the_floor_and_an_effects_share(tmp_p
     text = capsys.readouterr().out
     assert "seed 3: floor" in text and "hysteresis hidden" in text
     assert set(run["variants"]) == set(VARIANTS[1:]) and all(f"replayed with {v}:" in text for v in VARIANTS[1:])
+
+
+def test_a_diagnostic_replay_receives_the_records_signals_before_any_identification():
+    from simulation.discrepancy import MeasuredSignals
+    from studies.common.discrepancy_runs import generate_measured, run_on_raven_dataset
+
+    class Seen(Exception):
+        pass
+
+    dataset, _ = generate_measured((), seed=2, duration=20.0)
+    received = []
+
+    def transform(signals):
+        received.append(signals)
+        raise Seen
+
+    with pytest.raises(Seen):
+        run_on_raven_dataset(dataset, replay_signals=transform)
+    (signals,) = received
+    assert isinstance(signals, MeasuredSignals) and len(signals) == len(dataset.time)
+    np.testing.assert_array_equal(signals.truth, dataset.targets)

@@ -254,11 +254,17 @@ def controller_of(dataset):
 
 
 def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: WorkflowSettings = WorkflowSettings(),
-                         fractions=(0.5, 0.25, 0.25), exclude=(), candidates=LIBRARY, progress: bool = False
-                         ) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+                         fractions=(0.5, 0.25, 0.25), exclude=(), candidates=LIBRARY, progress: bool = False,
+                         replay_signals=None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
     """The workflow on a RAVEN-II dataset: split in time, identify ``structure`` on the fit part,
-    screen the ``candidates`` (effect names); ``progress`` shows the candidate fits on stderr."""
+    screen the ``candidates`` (effect names); ``progress`` shows the candidate fits on stderr.
+
+    ``replay_signals`` (diagnostics only; the blind analysis never passes it) maps the record's
+    :class:`MeasuredSignals` to those the replay runs on, e.g. with other derivatives
+    (:meth:`MeasuredSignals.with_derivatives`); the identification reads the dataset as always."""
     signals = MeasuredSignals.from_dataset(dataset)
+    if replay_signals is not None:
+        signals = replay_signals(signals)
     split = Split.by_time(signals, fractions)
     base = raven_base_identifier(dataset, split.fit, structure)
     model = base.identify(tuple(structure), None)
