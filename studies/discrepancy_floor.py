@@ -35,8 +35,8 @@ bound each replay's floor sets: what a lower floor would change (about four minu
 analysis of a twenty-minute record).
 
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
-the seeds of the README's thirty-round table; fifteen twenty-minute records, a few minutes on one
-core).
+the seeds of the README's thirty-round table; fifteen twenty-minute records, 2.5 minutes on one
+core); ``--seed 31 --seeds 2 --effects backlash --analyse`` (four analyses, 18 minutes).
 """
 
 from __future__ import annotations
