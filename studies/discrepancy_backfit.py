@@ -13,7 +13,8 @@ This study generates the data of ``python studies/discrepancy.py --hidden-effect
 as the blind analysis does, once per cap of ``--rounds``, printing for each the effects named, the
 shrink, whether the residual left was flagged unexplained (its largest repeating share per joint),
 the named effects' fitted values beside the generator's, which backfits were still lowering the
-residual at the cap (``DiscrepancyResult.backfit_capped``) and the analysis's CPU time. With
+residual at the cap (``DiscrepancyResult.backfit_capped``) and the analysis's CPU time, then the
+floor bound of the record (``studies/discrepancy_floor.py``). With
 ``--oracle`` it fits the generator's structure with each cap too (``oracle``). It knows the
 generator only to print its values; every analysis runs on the file.
 
@@ -75,8 +76,8 @@ def _values(s: dict, truth: dict) -> list[str]:
 def main(argv: list[str] | None = None) -> dict:
     from simulation.discrepancy import WorkflowSettings
     from studies.common.discrepancy_runs import (
-        HIDDEN_PAYLOAD_KG, generate_measured, oracle, read_measured, run_on_raven_dataset, true_values,
-        write_measured)
+        HIDDEN_PAYLOAD_KG, floor_bound, floor_gap, generate_measured, oracle, read_measured, run_on_raven_dataset,
+        true_values, write_measured)
 
     parser = script_parser(STUDY, __doc__)
     parser.add_argument("--hidden-effect", required=True, choices=HIDDEN_CHOICES, help="the effect hidden")
@@ -114,6 +115,12 @@ def main(argv: list[str] | None = None) -> dict:
             for label, s in runs.items():
                 print(_line(f"{label}, at most {cap} backfit rounds", s), flush=True)
                 print("\n".join(_values(s, truth)), flush=True)
+    # the starting model's gaps do not depend on the cap
+    floor = result.gap_before if not hidden else floor_gap(args.seed, args.duration)
+    out["floor_bound"] = bound = floor_bound(floor, result.gap_before, result.units)
+    print(f"floor bound: {100 * bound:.1f} % (1 - the held-out gap the starting model leaves on the same seed's "
+          "record with nothing hidden / this record's, pooled: about the most a model replayed this way closes)",
+          flush=True)
     if args.out is not None:
         write_json(args.out, out)
     return out
