@@ -51,7 +51,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from simulation.discrepancy import DiscrepancyResult, WorkflowSettings, localize, strongest_dependence
-from simulation.discrepancy.signals import pooled_rmse, report_scale
+from simulation.discrepancy.signals import RAVEN_UNITS, pooled_rmse, report_scale
 from simulation.engine.robot import LOG_RATE, TRUTH_RATE
 from studies.common.data_sources import is_dvrk_folder
 from studies.common.discrepancy_runs import (
@@ -68,6 +68,7 @@ from studies.common.discrepancy_runs import (
     check_hidden,
     floor_bound,
     floor_gap,
+    shrink_bound,
     generate_measured,
     largest_share,
     oracle,
@@ -673,17 +674,18 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         before = pooled_rmse(result.residual_before.joints, result.units)
         after = pooled_rmse(fit.residual_after.joints, result.units)
         oracle_shrink = float(1.0 - after / before) if before > 0 else 0.0
-        floor = result.gap_before if not hidden else floor_gap(seed, duration)
         first = result.named_effects[0] if result.named_effects else ("unexplained" if result.unexplained else "none")
         return {"hidden": effect, "seed": seed, "named_first": first, "named": list(result.named_effects),
                 "equivalent": {k: list(v) for k, v in result.equivalent.items()},
                 "rivals": {k: dict(v) for k, v in result.rivals.items()},
                 "unexplained": result.unexplained, "gap_before": pooled_rmse(result.residual_before.joints, result.units),
-                "floor": pooled_rmse(np.asarray(floor)[None, :], result.units),
                 "shrink": float(result.shrink), "oracle_shrink": oracle_shrink,
                 "residual_structure": _structure_list(result), "oracle_residual_structure": _structure_list(fit),
                 "signature": list(result.signature), "command_shrink": _command_shrink(result),
                 "backfit_capped": list(result.backfit_capped), "oracle_backfit_capped": list(fit.backfit_capped)}
+
+    def floor_of(seed):
+        return seed, pooled_rmse(np.asarray(floor_gap(seed, duration))[None, :], RAVEN_UNITS)
 
     jobs = [(e, s) for e in effects for s in seeds]
     results = Parallel(n_jobs=-1, return_as="generator")(delayed(one)(e, s) for e, s in jobs)
@@ -692,6 +694,10 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         runs.append(run)
         if lines:
             print(sweep_line(run, len(runs), len(jobs)), file=sys.stderr, flush=True)
+    if "none" not in effects:
+        # each seed's floor once: the 'none' runs give it where they are swept
+        floors = dict(Parallel(n_jobs=-1)(delayed(floor_of)(s) for s in seeds))
+        runs = [{**run, "floor": floors[run["seed"]]} for run in runs]
     return summarise_sweep(runs, duration, out, size_factor, effects)
 
 
@@ -717,11 +723,11 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
 
     def bound_of(run) -> float | None:
         # the floor: what the starting model leaves on the same seed's record with nothing hidden
-        # (each run measures it; runs recorded before it did take the seed's 'none' run)
+        # (the seed's 'none' run, or the floor a sweep without them measured for each seed)
         floor = run.get("floor", floors.get(run["seed"]))
         if floor is None or run["hidden"] == "none":
             return None
-        return max(0.0, 1.0 - floor / run["gap_before"]) if run["gap_before"] > 0 else 0.0
+        return shrink_bound(floor, run["gap_before"])
 
     summary_rows = []
     for e in effects:

@@ -20,7 +20,7 @@ part of the gap, so the floor is what no analysis of this motion closes. The stu
   weighs it (a diagnostic of what the present sample's own encoder error does through the load, not
   a replay to use);
 - the replay's viscous and inertial loads both from the derivatives the identification fits with
-  (centred Savitzky-Golay fits over 0.6 s, which look 0.3 s ahead): how much of the floor is the
+  (centred Savitzky-Golay fits of a cubic over 0.6 s, which look 0.3 s ahead): how much of the floor is the
   noise and lag of the causal derivatives in the loads.
 
 With ``--effects``, for each effect hidden on the same seed (at its default size, or
@@ -35,7 +35,7 @@ bound each replay's floor sets: what a lower floor would change (about four minu
 analysis of a twenty-minute record).
 
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
-the seeds of the README's thirty-round table; fifteen twenty-minute records, 2.5 minutes on one
+the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
 core); ``--seed 31 --seeds 2 --effects backlash --analyse`` (four analyses, 18 minutes).
 """
 
@@ -121,29 +121,31 @@ def white_band_rms(rms: np.ndarray, rate: float, bands=BANDS_HZ) -> np.ndarray:
     return np.asarray(rms, dtype=float)[:, None] * np.sqrt(widths / nyquist)[None, :]
 
 
+def _centred(values: np.ndarray, time: np.ndarray, skip_present: bool) -> np.ndarray:
+    out = np.zeros_like(values)
+    if values.shape[0] >= 3:
+        out = np.gradient(np.gradient(values, time, axis=0), time, axis=0)
+    if skip_present and values.shape[0] >= 5:
+        h = float(np.median(np.diff(time)))
+        out[2:-2] = (values[4:] + values[:-4] - values[3:-1] - values[1:-3]) / (3.0 * h * h)
+    return out
+
+
 def centred_acceleration(signals, skip_present: bool = False) -> np.ndarray:
     """Second derivative of the measured joints by centred differences, within each homing: it looks
     ahead, which the replay's own estimate never does.
 
     By default ``np.gradient`` twice, ``(q[t+2] - 2 q[t] + q[t-2]) / (4 h^2)`` inside a homing of
-    log period ``h``, which weighs the sample's own reading by ``-1 / (2 h^2)``. With ``skip_present`` the fourth-order stencil
-    ``(q[t+2] + q[t-2] - q[t+1] - q[t-1]) / (3 h^2)`` (``h`` the homing's median period), exact for
-    cubics and blind to the sample itself, so that the sample's encoder error cannot reach its own
-    prediction through the inertial load; the first and last two samples of each homing keep the
-    first form.
+    log period ``h``, which weighs the sample's own reading by ``-1 / (2 h^2)``. With
+    ``skip_present`` the fourth-order stencil ``(q[t+2] + q[t-2] - q[t+1] - q[t-1]) / (3 h^2)``
+    (``h`` the homing's median period), exact for cubics and blind to the sample itself, so that the
+    sample's encoder error cannot reach its own prediction through the inertial load; the first and
+    last two samples of each homing keep the first form.
     """
-    truth, time = np.asarray(signals.truth, dtype=float), np.asarray(signals.time, dtype=float)
-    out = np.zeros_like(truth)
-    starts = np.flatnonzero(np.r_[True, signals.homing[1:] != signals.homing[:-1]])
-    for a, b in zip(starts, np.r_[starts[1:], truth.shape[0]]):
-        if b - a < 3:
-            continue
-        q = truth[a:b]
-        out[a:b] = np.gradient(np.gradient(q, time[a:b], axis=0), time[a:b], axis=0)
-        if skip_present and b - a >= 5:
-            h = float(np.median(np.diff(time[a:b])))
-            out[a + 2:b - 2] = (q[4:] + q[:-4] - q[3:-1] - q[1:-3]) / (3.0 * h * h)
-    return out
+    from simulation.discrepancy.signals import per_homing
+
+    return per_homing(_centred, np.asarray(signals.truth, dtype=float), np.asarray(signals.time, dtype=float),
+                      signals.homing, skip_present)
 
 
 def motor_side_acceleration(signals, coupling: np.ndarray) -> np.ndarray:
@@ -153,25 +155,28 @@ def motor_side_acceleration(signals, coupling: np.ndarray) -> np.ndarray:
     return signals.drive_acceleration @ np.asarray(coupling, dtype=float).T
 
 
+def _identification_derivatives(values: np.ndarray, time: np.ndarray) -> np.ndarray:
+    from simulation.identification.samples import DERIVATIVE_WINDOW, savgol_derivatives
+
+    step = float(np.median(np.diff(time))) if values.shape[0] > 1 else 0.0
+    width = max(int(round(DERIVATIVE_WINDOW / step)) | 1, 5) if step > 0 else 0
+    if not width or values.shape[0] < width:
+        return np.zeros((values.shape[0], 2 * values.shape[1]))
+    return np.hstack(savgol_derivatives(values, width, step))
+
+
 def identification_derivatives(signals) -> tuple[np.ndarray, np.ndarray]:
-    """Velocity and acceleration of the measured joints as the identification takes them: centred
-    Savitzky-Golay fits (quadratic) over :data:`~simulation.identification.samples.DERIVATIVE_WINDOW`
-    (0.6 s, 19 samples at 30 Hz), within each homing. They look 0.3 s ahead and weigh the present
-    sample's reading by zero in the velocity."""
-    from scipy.signal import savgol_filter
+    """Velocity and acceleration of the measured joints as the identification takes them
+    (:func:`~simulation.identification.samples.savgol_derivatives`: centred Savitzky-Golay fits of a
+    cubic over :data:`~simulation.identification.samples.DERIVATIVE_WINDOW`, 0.6 s or 19 samples at
+    30 Hz), within each homing. They look 0.3 s ahead and weigh the present sample's reading by
+    zero in the velocity."""
+    from simulation.discrepancy.signals import per_homing
 
-    from simulation.identification.samples import DERIVATIVE_WINDOW
-
-    truth, time = np.asarray(signals.truth, dtype=float), np.asarray(signals.time, dtype=float)
-    velocity, acceleration = np.zeros_like(truth), np.zeros_like(truth)
-    starts = np.flatnonzero(np.r_[True, signals.homing[1:] != signals.homing[:-1]])
-    for a, b in zip(starts, np.r_[starts[1:], truth.shape[0]]):
-        step = float(np.median(np.diff(time[a:b]))) if b - a > 1 else 0.0
-        width = max(int(round(DERIVATIVE_WINDOW / step)) | 1, 5) if step > 0 else 0
-        if width and b - a >= width:
-            velocity[a:b] = savgol_filter(truth[a:b], width, 2, deriv=1, delta=step, axis=0)
-            acceleration[a:b] = savgol_filter(truth[a:b], width, 2, deriv=2, delta=step, axis=0)
-    return velocity, acceleration
+    both = per_homing(_identification_derivatives, np.asarray(signals.truth, dtype=float),
+                      np.asarray(signals.time, dtype=float), signals.homing)
+    joints = signals.truth.shape[1]
+    return both[:, :joints], both[:, joints:]
 
 
 VARIANTS = ("replay", "no inertial load", "motor-side acceleration", "look-ahead acceleration, present sample skipped",

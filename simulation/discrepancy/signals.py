@@ -75,7 +75,7 @@ def _causal_derivative(values: np.ndarray, time: np.ndarray, window: int, order:
     return np.einsum("nw,njw->nj", slope_weights, windows_v)
 
 
-def _per_homing(derivative, values: np.ndarray, time: np.ndarray, homing: np.ndarray, *args) -> np.ndarray:
+def per_homing(derivative, values: np.ndarray, time: np.ndarray, homing: np.ndarray, *args) -> np.ndarray:
     """``derivative`` of each stretch of samples of one homing on its own: a re-homing re-registers
     the encoders, so the motor positions jump there and no derivative may span it."""
     starts = np.flatnonzero(np.r_[True, homing[1:] != homing[:-1]])
@@ -179,7 +179,7 @@ class MeasuredSignals:
     def velocity(self) -> np.ndarray:
         """Joint velocity from the measured positions (rad/s, m/s), causal: each sample's velocity
         uses that sample and the ``smoothing - 1`` before it (see :func:`_causal_derivative`)."""
-        return _per_homing(_causal_derivative, self.truth, self.time, self.homing, self.smoothing)
+        return per_homing(_causal_derivative, self.truth, self.time, self.homing, self.smoothing)
 
     @cached_property
     def acceleration(self) -> np.ndarray:
@@ -187,17 +187,17 @@ class MeasuredSignals:
         and the ``acceleration_window - 1`` samples before it (causal; a second lag-free derivative
         would double the encoders' noise in the inertial loads, which matters more than its lag of
         about a tenth of a second)."""
-        return _per_homing(_causal_derivative, self.velocity, self.time, self.homing, self.acceleration_window, 1)
+        return per_homing(_causal_derivative, self.velocity, self.time, self.homing, self.acceleration_window, 1)
 
     @cached_property
     def drive_velocity(self) -> np.ndarray:
         """Velocity of the transmission's input (joint units per s), causal like :attr:`velocity`."""
-        return _per_homing(_causal_derivative, self.drive, self.time, self.homing, self.smoothing)
+        return per_homing(_causal_derivative, self.drive, self.time, self.homing, self.smoothing)
 
     @cached_property
     def drive_acceleration(self) -> np.ndarray:
         """Acceleration of the transmission's input, causal like :attr:`acceleration`."""
-        return _per_homing(_causal_derivative, self.drive_velocity, self.time, self.homing, self.acceleration_window, 1)
+        return per_homing(_causal_derivative, self.drive_velocity, self.time, self.homing, self.acceleration_window, 1)
 
     def cumulative_motion(self, per_kg: float = 0.0) -> np.ndarray:
         """Accumulated joint travel since the start of the record (rad, rad, m), optionally load-weighted.
@@ -310,7 +310,7 @@ class MeasuredSignals:
                 raise ValueError(f"the {name} is not finite at sample {bad}")
             value.setflags(write=False)
             given[name] = value
-        kept = {"velocity": self.velocity, "acceleration": self.acceleration}
+        kept = {name: getattr(self, name) for name in ("velocity", "acceleration") if name not in given}
         copy = replace(self)
         for name in ("drive_velocity", "drive_acceleration", "restarts"):
             if name in self.__dict__:

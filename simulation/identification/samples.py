@@ -109,7 +109,10 @@ class IdentificationSamples:
         return self.time.size
 
 
-def _derivatives(values: np.ndarray, window: int, step: float) -> tuple[np.ndarray, np.ndarray]:
+def savgol_derivatives(values: np.ndarray, window: int, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """First and second time derivatives of each column of ``values`` (sampled every ``step`` s)
+    from centred Savitzky-Golay fits of a cubic over ``window`` samples (odd): the derivatives the
+    identification fits with."""
     first = savgol_filter(values, window, 3, deriv=1, delta=step, axis=0)
     second = savgol_filter(values, window, 3, deriv=2, delta=step, axis=0)
     return first, second
@@ -170,8 +173,8 @@ def prepare_samples(log, params: RavenParameters, window: float = DERIVATIVE_WIN
             continue
         u = u_all[segment]
         q = log.joints[segment]
-        ud, udd = _derivatives(u, width, step)
-        qd, qdd = _derivatives(q, width, step)
+        ud, udd = savgol_derivatives(u, width, step)
+        qd, qdd = savgol_derivatives(q, width, step)
         keep = slice(width // 2, time.size - width // 2)
         pieces.append(dict(time=time[keep], motor=u[keep], motor_velocity=ud[keep], motor_acceleration=udd[keep],
                            motor_torque=tau_all[segment][keep], joints=q[keep], joint_velocity=qd[keep],

@@ -511,16 +511,18 @@ def floor_gap(seed: int, duration: float, robot_options: dict | None = None) -> 
     return held_out_gap(model, signals, split, robot)
 
 
-def floor_bound(floor, gap_before, units) -> float:
-    """``1 - floor / gap``, each pooled in degrees and millimetres (per-joint SI gaps in ``units``):
-    about the most of ``gap_before`` a model replayed this way closes (0 where the gap is at the
-    floor or below it)."""
-    from simulation.discrepancy.signals import report_scale
+def shrink_bound(floor: float, gap: float) -> float:
+    """``1 - floor / gap`` of two pooled gaps: about the most of ``gap`` a model replayed this way
+    closes (0 where the gap is at the floor or below it)."""
+    return max(0.0, 1.0 - floor / gap) if gap > 0 else 0.0
 
-    scale = report_scale(units)
-    gap = float(np.sqrt(np.mean(np.square(np.asarray(gap_before) * scale))))
-    under = float(np.sqrt(np.mean(np.square(np.asarray(floor) * scale))))
-    return max(0.0, 1.0 - under / gap) if gap > 0 else 0.0
+
+def floor_bound(floor, gap_before, units) -> float:
+    """:func:`shrink_bound` of per-joint gaps (SI, in ``units``), each pooled in degrees and
+    millimetres."""
+    from simulation.discrepancy.signals import pooled_rmse
+
+    return shrink_bound(pooled_rmse(np.asarray(floor)[None, :], units), pooled_rmse(np.asarray(gap_before)[None, :], units))
 
 
 def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rounds,
