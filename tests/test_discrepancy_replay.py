@@ -288,3 +288,16 @@ def test_derivatives_of_another_shape_or_not_finite_are_refused(record, name, ch
     signals, _, _ = record
     with pytest.raises(ValueError, match=message):
         signals.with_derivatives(**({} if change is None else {name: change(getattr(signals, name))}))
+
+
+@pytest.mark.parametrize("layout", ["C", "rows of C", "F", "every other row"])
+def test_column_means_are_numpys_to_the_last_bit_in_every_layout(layout):
+    from simulation.discrepancy.fitting import column_means
+
+    rng = np.random.default_rng(4)
+    for rows in (1, 2, 7, 1000, 4801):
+        # columns of very different sizes and offsets, where the order of the additions shows
+        table = rng.normal(size=(rows, 3)) * np.array([1e-6, 3.0, 1e4]) + np.array([0.3, -7.0, 1e5])
+        values = {"C": table, "rows of C": table[rows // 3:], "F": np.asfortranarray(table),
+                  "every other row": table[::2]}[layout]
+        assert np.array_equal(column_means(values), values.mean(axis=0))
