@@ -192,7 +192,8 @@ def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteres
 
 
 class _SeriesMemo:
-    """The last results of :func:`cable_link_series`, looked up by their inputs.
+    """The last results of :func:`cable_link_series`, with the cable's elastic tension along them,
+    looked up by their inputs.
 
     A candidate's fit perturbs one parameter at a time to take its gradient, and a parameter of
     one joint leaves the other joints' series unchanged: their results are taken from here instead
@@ -210,7 +211,9 @@ class _SeriesMemo:
         self._results: OrderedDict[tuple, list] = OrderedDict()
 
     def series(self, base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma,
-               start, restart, capstan) -> tuple[np.ndarray, np.ndarray]:
+               start, restart, capstan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The link positions, the hysteresis state and the elastic tension ``k x0 sinh(s / x0)`` of
+        the stretch ``s = base - link`` (before the cable's softening), each (N,)."""
         arrays = (base, load, dry, softening, start, restart)
         scalars = (stiffness, hardening, hysteresis_stiffness, beta, gamma, capstan)
         key = (base.shape[0], _series_fingerprint(*arrays)) + tuple(float(v) for v in scalars)
@@ -218,8 +221,10 @@ class _SeriesMemo:
             if _same_series_inputs(*arrays, *remembered):
                 self._results.move_to_end(key)
                 return result
-        result = cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta,
-                                   gamma, start, restart, capstan)
+        link, z = cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta,
+                                    gamma, start, restart, capstan)
+        # the elastic tension of this joint's stretch, element by element as the whole table's
+        result = (link, z, cable_tension_curve(base - link, stiffness, hardening))
         for array in result:
             array.setflags(write=False)
         copies = tuple(np.array(a, copy=True) for a in arrays)
@@ -277,6 +282,15 @@ def _ones(shape: tuple) -> np.ndarray:
     ones = np.ones(shape)
     ones.setflags(write=False)
     return ones
+
+
+@functools.lru_cache(maxsize=64)
+def _constant(n: int, value: float) -> np.ndarray:
+    """A read-only (n,) array of ``value`` (a joint's dry friction bound), shared by every replay
+    that asks for the same one."""
+    array = np.full(n, value)
+    array.setflags(write=False)
+    return array
 
 
 @dataclass(frozen=True, eq=False)
@@ -408,13 +422,13 @@ class RavenModel:
             gamma = hyst.gamma if hyst.enabled else np.ones(3)
             link = np.empty_like(u)
             z = np.empty_like(u)
+            tension = np.empty(u.shape)
             columns = [np.ascontiguousarray(a.T) for a in (base, load, softening, first)]
             for i in range(3):
-                link[:, i], z[:, i] = _SERIES.series(
-                    columns[0][i], columns[1][i], np.full(n, force[i]), columns[2][i], law.stiffness[i],
+                link[:, i], z[:, i], tension[:, i] = _SERIES.series(
+                    columns[0][i], columns[1][i], _constant(n, float(force[i])), columns[2][i], law.stiffness[i],
                     law.hardening[i], k_h[i], beta[i], gamma[i], columns[3][i], signals.restarts, capstan[i])
             stretch = base - link
-            tension = cable_tension_curve(stretch, law.stiffness, law.hardening)
             if drifts:
                 tension = tension / softening
             tension = tension + k_h * z
@@ -432,9 +446,8 @@ class RavenModel:
 
         ratio = c.transmission_ratio[:3]
         gear = c.gearbox[:3]
-        inertia = c.motor_inertia[:3] * ratio ** 2
-        damping = c.motor_damping[:3] * ratio ** 2
-        motor_side = tension @ a + inertia * signals.drive_acceleration + damping * signals.drive_velocity
+        inertial, damping = signals.motor_loads(c.motor_inertia[:3] * ratio ** 2, c.motor_damping[:3] * ratio ** 2)
+        motor_side = tension @ a + inertial + damping
         if p.is_enabled("motor_friction"):
             # the amplifier's torque also overcomes the motor's and gearbox's friction (joint units)
             friction = p.effect("motor_friction")

@@ -247,6 +247,20 @@ class MeasuredSignals:
             cache[key] = (heavier_gravity - gravity, heavier_inertial - inertial)
         return cache[key]
 
+    def motor_loads(self, inertia: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The motors' inertial and damping loads ``inertia * u''`` and ``damping * u'`` along the
+        transmission's input (joint units; cached per ``inertia`` and ``damping``, (J,) each, in the
+        same units referred to the joints), which every replay of a RAVEN-II model adds to its
+        motor torques."""
+        cache = self.__dict__.setdefault("_motor_loads", {})
+        key = (np.asarray(inertia, dtype=float).tobytes(), np.asarray(damping, dtype=float).tobytes())
+        if key not in cache:
+            loads = (inertia * self.drive_acceleration, damping * self.drive_velocity)
+            for array in loads:
+                array.setflags(write=False)
+            cache[key] = loads
+        return cache[key]
+
     def head(self, n: int) -> "MeasuredSignals":
         """The first ``n`` samples (cached), with this record's derivatives and loads: every
         derivative is causal, so the first samples' values do not depend on what follows, and a
