@@ -345,8 +345,8 @@ DEFAULT_RECORD_S = 1200.0
 twenty minutes of the paper's random test sessions. Drift, the one candidate that grows with time,
 is below what shorter records resolve at its published size (one hour of aging per hour): named on 0
 of 20 seeds of four-minute records and 0 of 5 of ten-minute ones, whose true structure closes at
-most 14 % and 41 % of the held-out gap; named alone on every seed of twenty-minute ones (README,
-**Ten- and twenty-minute records**)."""
+most 14 % and 41 % of the held-out gap; named alone on every seed of twenty-minute ones
+(``studies/DISCREPANCY_MEASUREMENTS.md``, **Ten- and twenty-minute records**)."""
 
 MAX_RECORD_S = 6 * 3600.0
 """Longest random motion :func:`generate_measured` makes (s): six hours, the paper's longest
