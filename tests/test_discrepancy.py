@@ -346,7 +346,7 @@ def test_a_backfit_cut_by_its_last_allowed_round_is_reported_and_one_that_stoppe
 
 
 def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
-    from studies.discrepancy import write_report
+    from studies.common.discrepancy_report import write_report
 
     time, reported, rng = _generic_record(seed=2)
     truth = reported + 0.01 + 0.02 * np.tanh(np.gradient(reported, time, axis=0) / 0.05)
@@ -498,7 +498,7 @@ def test_a_hysteresis_driven_by_another_joint_is_named_coupled_hysteresis(tmp_pa
     import simulation.discrepancy.workflow as workflow
     from simulation.discrepancy import fitting
     from simulation.discrepancy.generic import coupled_hysteresis_shares
-    from studies.discrepancy import write_report
+    from studies.common.discrepancy_report import write_report
 
     linear_fits, searched = [], []
 
@@ -860,7 +860,7 @@ def test_the_command_line_refuses_an_unknown_effect_and_a_missing_path(tmp_path,
 
 
 def test_a_sweep_run_in_a_log_is_one_line_with_what_was_hidden_named_and_closed():
-    from studies.discrepancy import sweep_line
+    from studies.common.discrepancy_sweep import sweep_line
 
     run = {"hidden": "backlash", "seed": 19, "named": ["backlash", "capstan_friction"], "unexplained": True,
            "shrink": 0.41234, "oracle_shrink": 0.355}

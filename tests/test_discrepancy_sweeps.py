@@ -12,7 +12,8 @@ import json
 import pytest
 
 from studies.common.discrepancy_runs import LIBRARY, STARTING_STRUCTURE
-from studies.discrepancy import main, summarise_sweep
+from studies.common.discrepancy_sweep import summarise_sweep
+from studies.discrepancy import main
 
 
 def _run(hidden: str, seed: int, named=(), shrink=0.0, oracle=0.0) -> dict:

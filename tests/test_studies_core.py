@@ -441,14 +441,14 @@ def test_the_play_widths_study_says_when_each_joint_is_driven_by_its_own_motion_
 
 def test_the_weights_of_either_form_of_coupled_hysteresis_are_labelled_by_joint_driver_and_width():
     from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
-    from studies.discrepancy import _value_labels
+    from studies.common.discrepancy_report import value_labels
 
     joints, widths = ("roll", "pitch", "yaw"), len(HYSTERESIS_WIDTH_FRACTIONS)
-    every = _value_labels(9 * widths, joints, "weight")
+    every = value_labels(9 * widths, joints, "weight")
     assert every[0] == "roll from roll, play of 1/2 of its range"
     assert every[widths] == "roll from pitch, play of 1/2 of its range"
     assert every[-1] == "yaw from yaw, play of 1/256 of its range"
-    own = _value_labels(3 * widths, joints, "weight")
+    own = value_labels(3 * widths, joints, "weight")
     assert own[widths - 1] == "roll from its own motion, play of 1/256 of its range"
     assert own[widths] == "pitch from its own motion, play of 1/2 of its range"
-    assert _value_labels(3, joints, "weight") == list(joints)
+    assert value_labels(3, joints, "weight") == list(joints)

@@ -1,0 +1,495 @@
+"""The reports of the model-discrepancy workflow's runs: ``report.json``, ``report.md`` and plots.
+
+:func:`write_report` writes what one blind analysis found (its starting structure and library, the
+named effects, the held-out gaps, every candidate of every iteration, the fitted parameters in
+report units, where the starting model's residual is, and the signature of what is left).
+A run that generated its data adds the generator's knowledge afterwards
+(:func:`add_generator_knowledge`: the true parameters, the oracle and the floor), and a run on the
+dVRK data the learned calibrators scored on the same split (:func:`add_learned_comparison`).
+SI inside; degrees and millimetres in the reports (:data:`REPORT_UNITS`).
+``studies/discrepancy.py`` is the command line that calls them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+
+from simulation.discrepancy import DiscrepancyResult, WorkflowSettings, localize, strongest_dependence
+from simulation.discrepancy.signals import pooled_rmse, report_scale
+from simulation.engine.robot import LOG_RATE
+from studies.common.discrepancy_runs import (
+    HIDDEN_PAYLOAD_KG,
+    STARTING_STRUCTURE,
+    drift_record_note,
+    floor_bound,
+    floor_gap,
+    largest_share,
+    log_rate_options,
+    oracle,
+    short_record_note,
+    true_values,
+)
+from studies.common.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text
+
+DVRK_STARTING_MODEL = "reported joints plus constant offsets (the dVRK's nominal model)"
+"""What ``report.md`` calls the dVRK's starting model (it has no cable structure)."""
+
+
+def in_report_units(values, units) -> list[float]:
+    """Per-joint values in SI (rad, m) as a list in report units (deg, mm), in the order of ``units``."""
+    return (np.asarray(values) * report_scale(units)).tolist()
+
+
+def report_unit_names(units) -> list[str]:
+    """The report unit of each joint: "deg" for a rotation, "mm" for a translation."""
+    return ["deg" if u == "rad" else "mm" for u in units]
+
+
+
+REPORT_UNITS = {"rad": ("deg", 180.0 / np.pi), "m": ("mm", 1000.0), "rad/h": ("deg/h", 180.0 / np.pi),
+                "m/h": ("mm/h", 1000.0), "rad/rad": ("deg/deg", 1.0), "m/m": ("mm/mm", 1.0)}
+"""SI units of parameter values shown in degrees or millimetres in ``report.md`` (others stay SI)."""
+
+
+def value_labels(size: int, joint_names, block: str = "") -> list[str]:
+    """What each value of a parameter block refers to: a joint, a pair of joints, or a homing (second,
+    third ... of the record: registration offsets relative to the first) and a joint, or a pair of joints
+    (or a joint and its own motion) and a play operator's half-width (the weights of
+    ``coupled_hysteresis``, in either of its forms)."""
+    from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
+
+    j = len(joint_names)
+    if block == "weight" and size == j * j * len(HYSTERESIS_WIDTH_FRACTIONS):
+        return [f"{joint_names[r]} from {joint_names[c]}, play of 1/{round(1 / f)} of its range"
+                for r in range(j) for c in range(j) for f in HYSTERESIS_WIDTH_FRACTIONS]
+    if block == "weight" and size == j * len(HYSTERESIS_WIDTH_FRACTIONS):
+        return [f"{joint_names[r]} from its own motion, play of 1/{round(1 / f)} of its range"
+                for r in range(j) for f in HYSTERESIS_WIDTH_FRACTIONS]
+    if block == "offset" and size % j == 0:
+        return [f"homing {k + 2} of the record, {joint_names[i]}" for k in range(size // j) for i in range(j)]
+    if size == j:
+        return list(joint_names)
+    if size == j * (j - 1):
+        return [f"{joint_names[r]} from {joint_names[c]}" for r in range(j) for c in range(j) if r != c]
+    return [str(i) for i in range(size)]
+
+
+def parameter_rows(fitted: dict, units: dict, joint_names, truth: dict | None = None) -> list[list]:
+    """Rows (effect, parameter, joint, fitted[, true], unit) in report units, one per value."""
+    rows = []
+    for effect, blocks in fitted.items():
+        for block, values in blocks.items():
+            values = np.atleast_1d(np.asarray(values, dtype=float))
+            block_units = units.get(effect, {}).get(block, [""] * values.size)
+            true = None if truth is None else truth.get(effect)
+            true = true.get(block) if isinstance(true, dict) else true
+            labels = value_labels(values.size, joint_names, block)
+            for i, (label, value, unit) in enumerate(zip(labels, values, block_units)):
+                shown, factor = REPORT_UNITS.get(unit, (unit, 1.0))
+                row = [effect, block, label, value * factor]
+                if truth is not None:
+                    row.append("-" if true is None else true if isinstance(true, str)
+                               else np.asarray(true, dtype=float).ravel()[i] * factor)
+                rows.append(row + [shown or "1"])
+    return rows
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file (a folder: of its files in name order), so a report names exactly its input."""
+    digest = hashlib.sha256()
+    files = sorted(p for p in Path(path).rglob("*") if p.is_file()) if Path(path).is_dir() else [Path(path)]
+    for file in files:
+        digest.update(file.read_bytes())
+    return digest.hexdigest()
+
+
+def command_shrink(result: DiscrepancyResult) -> float | None:
+    """1 - after/before of the controller replay's held-out command gap, pooled over the joints
+    (N m); None when the controller was not replayed."""
+    check = result.controller
+    if check is None:
+        return None
+    before = float(np.sqrt(np.mean(np.square(check.held_out_gap_before))))
+    return float(1.0 - np.sqrt(np.mean(np.square(check.held_out_gap_kept))) / before) if before > 0 else 0.0
+
+
+def _controller_document(result: DiscrepancyResult) -> dict | None:
+    """The controller replay's part of ``report.json`` (command gaps: RMS of logged minus replayed
+    command per joint, N m at the gearbox output), None when it did not run."""
+    check = result.controller
+    if check is None:
+        return None
+    return {"named": bool(check.named), "scale_error": [float(v) for v in check.scale_error],
+            "command_gap_before": [float(v) for v in check.held_out_gap_before],
+            "command_gap_after": [float(v) for v in check.held_out_gap_kept],
+            "fit_command_gap": [[float(v) for v in check.fit_gap_before], [float(v) for v in check.fit_gap_after]],
+            "validation_command_gap": [[float(v) for v in check.validation_gap_before],
+                                       [float(v) for v in check.validation_gap_after]],
+            "bic": [check.bic_before, check.bic_after], "units": "N m at the gearbox output"}
+
+
+def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
+                    starting_structure=STARTING_STRUCTURE, analysis: str = "blind") -> dict:
+    """``report.json``: what the analysis found, its starting point and library, the iterations."""
+    return {
+        "analysis": analysis,
+        "starting_structure": list(starting_structure),
+        "library": list(result.library),
+        "named_effects": list(result.named_effects),
+        "unexplained": bool(result.unexplained),
+        "gap_before": [float(v) for v in result.gap_before],
+        "gap_after": [float(v) for v in result.gap_after],
+        "shrink": float(result.shrink),
+        "torque_gap_before": None if result.torque_gap_before is None else [float(v) for v in result.torque_gap_before],
+        "torque_gap_after": None if result.torque_gap_after is None else [float(v) for v in result.torque_gap_after],
+        "equivalent": {k: list(v) for k, v in result.equivalent.items()},
+        "rivals": {k: dict(v) for k, v in result.rivals.items()},
+        "signature": list(result.signature),
+        "residual_structure": structure_shares(result),
+        "backfit_rounds": result.backfit_rounds,
+        "backfit_capped": list(result.backfit_capped),
+        "controller": _controller_document(result),
+        "fitted_parameters": to_jsonable(result.fitted_parameters),
+        "parameter_units": to_jsonable(result.parameter_units),
+        "units": list(result.units),
+        "joints": list(result.joint_names),
+        "gap_before_report_units": in_report_units(result.gap_before, result.units),
+        "gap_after_report_units": in_report_units(result.gap_after, result.units),
+        "report_units": report_unit_names(result.units),
+        "iterations": [
+            {"validation_gap": it.gap_before, "fit_gap": it.fit_gap_before, "bic": it.bic_before, "named": it.named,
+             "validation_torque_gap": it.torque_gap_before, "fit_torque_gap": it.fit_torque_gap_before,
+             "equivalent": list(it.equivalent), "rivals": dict(it.rivals),
+             "candidates": [{"name": s.name, "fitted": s.fitted, "validation_gap": s.validation_gap, "fit_gap": s.fit_gap,
+                             "validation_torque_gap": s.torque_gap, "fit_torque_gap": s.fit_torque_gap,
+                             "bic": s.bic, "screened_chi_square": s.screened_chi_square, "parameters": s.values,
+                             "backfit_rounds": s.backfit_rounds, "backfit_capped": s.backfit_capped}
+                            for s in it.scores]}
+            for it in result.iterations
+        ],
+        "source": source,
+        "created": now_iso(),
+        "runtime_s": round(runtime_s, 1),
+    }
+
+
+def _plots(result: DiscrepancyResult, signals, split, out: Path) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scale = report_scale(result.units)
+    units = report_unit_names(result.units)
+    paths = []
+    time_axis = signals.time[split.held_out] - signals.time[0]
+    figure, axes = plt.subplots(signals.n_joints, 1, figsize=(9, 2.4 * signals.n_joints), sharex=True)
+    for j, ax in enumerate(np.atleast_1d(axes)):
+        ax.plot(time_axis, result.residual_before.joints[:, j] * scale[j], lw=0.8, label="starting model")
+        ax.plot(time_axis, result.residual_after.joints[:, j] * scale[j], lw=0.8, label="with named effects")
+        ax.set_ylabel(f"{result.joint_names[j]} residual ({units[j]})")
+        ax.grid(alpha=0.3)
+    np.atleast_1d(axes)[0].legend(loc="upper right")
+    np.atleast_1d(axes)[-1].set_xlabel("time since the start of the record (s)")
+    figure.suptitle("Held-out part: residual (measured minus model) over time")
+    figure.tight_layout()
+    paths.append(out / "residual_over_time.png")
+    figure.savefig(paths[-1], dpi=110)
+    plt.close(figure)
+
+    before = result.model_before.replay(signals).joints
+    residual = signals.truth - before
+    velocity = signals.velocity
+    figure, axes = plt.subplots(signals.n_joints, 2, figsize=(10, 2.4 * signals.n_joints))
+    axes = np.atleast_2d(axes)
+    mask = split.fit | split.validation
+    for j in range(signals.n_joints):
+        axes[j, 0].scatter(velocity[mask, j] * scale[j], residual[mask, j] * scale[j], s=2, alpha=0.3)
+        axes[j, 0].set_xlabel(f"{result.joint_names[j]} velocity ({units[j]}/s)")
+        axes[j, 0].set_ylabel(f"{result.joint_names[j]} residual ({units[j]})")
+        axes[j, 1].scatter(signals.travel[mask, j] * scale[j], residual[mask, j] * scale[j], s=2, alpha=0.3)
+        axes[j, 1].set_xlabel(f"{result.joint_names[j]} accumulated travel ({units[j]})")
+    figure.suptitle("Fit and validation parts: starting model's residual against velocity and accumulated travel")
+    figure.tight_layout()
+    paths.append(out / "residual_vs_variables.png")
+    figure.savefig(paths[-1], dpi=110)
+    plt.close(figure)
+    return paths
+
+
+COLUMNS_EXPLAINED = """\
+Each iteration first shows the current model (candidate "(current model)"), then each candidate
+added to it. Columns: *fitted*: fitted in full (or only screened by a coarse scan of its
+parameters); *fit-part gap*, *validation gap*: pooled RMSE of measured minus model over the joints
+(degrees and millimetres together) on the fit part and on the validation part; *BIC*: the
+validation part's weighted squared residual (joints and motor torques, each weighted by the current
+model's misfit) plus k ln n for the candidate's k parameters; lower BIC is better; *torque gap*: RMS
+of the motor-torque residual on the validation part, each joint over the current model's typical
+misfit (1 = as large as the current model's; "-" without torques). The candidate named is the one
+of lowest BIC, below the current model's, that cuts both joint gaps by at least 10 % (or, for an
+effect seen only in the motor torques, the torque gap on both parts)."""
+
+
+def _drag_section(result: DiscrepancyResult, signals, split) -> list[str]:
+    """With ``coupled_hysteresis`` named on generic data, how much each joint's motion drags each
+    joint (RMS over the fit and validation parts, report units): its weights summed per pair."""
+    from simulation.discrepancy.generic import NominalModel, coupled_hysteresis_shares
+
+    model = result.model_after
+    if not isinstance(model, NominalModel) or "coupled_hysteresis" not in model.effects:
+        return []
+    shares = coupled_hysteresis_shares(model.effects["coupled_hysteresis"], signals, split.fit | split.validation)
+    scale = report_scale(result.units)
+    units = report_unit_names(result.units)
+    rows = [[f"{name} ({unit})", *(shares[j] * scale[j])] for j, (name, unit) in enumerate(zip(result.joint_names,
+                                                                                                units))]
+    return ["## Which joint drags which (coupled hysteresis)", "",
+            "RMS over the fit and validation parts of what each joint's motion (column) adds to each joint (row) "
+            "through the named coupled hysteresis; the diagonal is a joint's own hysteresis.", "",
+            markdown_table(["moved joint", *[f"by {name}" for name in result.joint_names]], rows, digits=3), ""]
+
+
+def write_report(result: DiscrepancyResult, signals, split, source: dict, out: Path, runtime_s: float,
+                 starting_structure=STARTING_STRUCTURE, analysis: str = "blind") -> list[Path]:
+    """Write ``report.json``, ``report.md`` and the plots of one workflow run in the folder ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    document = report_document(result, source, runtime_s, starting_structure, analysis)
+    note = short_record_note(signals)
+    document["record_s"] = float(signals.time[-1] - signals.time[0])
+    document["short_record"] = note
+    drift_note = drift_record_note(signals)
+    document["drift_note"] = drift_note
+    json_path = write_json(out / "report.json", document)
+    units = report_unit_names(result.units)
+    before_state = result.model_before.replay(signals)
+    table = localize(signals, signals.truth - before_state.joints, before_state, split.fit | split.validation)
+    dependence = strongest_dependence(table)
+    rows = [[name, f"{b:.4f} {u}", f"{a:.4f} {u}"] for name, b, a, u in
+            zip(result.joint_names, document["gap_before_report_units"], document["gap_after_report_units"], units)]
+    iteration_rows = []
+    for k, it in enumerate(result.iterations):
+        iteration_rows.append([str(k + 1), "(current model)", "", it.fit_gap_before, it.gap_before,
+                               it.torque_gap_before, it.bic_before, ""])
+        for s in it.scores:
+            iteration_rows.append([str(k + 1), s.name, "yes" if s.fitted else "screened only", s.fit_gap,
+                                   s.validation_gap, s.torque_gap, s.bic, "named" if it.named == s.name else ""])
+    start = ", ".join(starting_structure) if starting_structure else DVRK_STARTING_MODEL
+    kind = "Ablation (the model lacks a term the data have)" if analysis == "ablation" else "Blind analysis"
+    parameter_table = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names)
+    sections = [
+        f"# Model discrepancy: {source.get('description', '')}",
+        "",
+        f"{kind}. Starting structure: {start}. Candidates screened: {', '.join(result.library) or 'none'}.",
+        "",
+        *([] if note is None else [f"**Short record:** {note}.", ""]),
+        *([] if drift_note is None else [f"**Record too short for drift:** {drift_note}.", ""]),
+        f"- named effects (in order): {', '.join(result.named_effects) or 'none'}",
+        *[f"- {named} was named by a BIC margin of at most {WorkflowSettings().bic_tie:g} over "
+          + ", ".join(f"{name} (BIC higher by {d:.2f})" for name, d in rivals.items())
+          + ": the data support those about as well" for named, rivals in result.rivals.items()],
+        f"- unexplained residual left: {'yes' if result.unexplained else 'no'}",
+        *[f"- the backfit of {name} was still lowering the fit part's residual at its last allowed round "
+          f"(round {result.backfit_rounds}; `--backfit-rounds` allows more): its fit, and the shrink, may stop short"
+          for name in result.backfit_capped],
+        *([] if result.residual_structure is None else [
+            "- repeatable structure of the residual the final model leaves (share of each joint's variance the "
+            f"generic term library predicts on blocks it was not fitted to; flagged unexplained at "
+            f"{100 * WorkflowSettings().structure_share:.0f} % or more; 0 % where the library predicts no "
+            "better than each block's mean): "
+            + ", ".join(f"{name} {100 * max(v, 0.0):.0f} %" for name, v in zip(result.joint_names,
+                                                                            result.residual_structure))]),
+        *([] if result.controller is None else [
+            "- controller replay (logged commands against the controller's law, held-out RMS per joint, N m): "
+            + ", ".join(f"{name} {b:.4g} -> {a:.4g}" for name, b, a in zip(
+                result.joint_names, document["controller"]["command_gap_before"],
+                document["controller"]["command_gap_after"]))
+            + (f"; gravity model scale error fitted: {', '.join(f'{v:+.4f}' for v in result.controller.scale_error)}"
+               if result.controller.named else "; nothing named")]),
+        f"- held-out gap shrink (pooled RMSE, deg and mm): {100 * result.shrink:.1f} %",
+        f"- run: {document['created']}, {runtime_s:.0f} s",
+        "",
+        "## Held-out gap per joint (RMSE, measured minus model)",
+        "",
+        markdown_table(["joint", "starting model", "with named effects"], rows),
+        "",
+        "## Candidates per iteration (gaps: pooled RMSE, deg and mm)",
+        "",
+        COLUMNS_EXPLAINED,
+        "",
+        markdown_table(["iteration", "candidate", "fitted", "fit-part gap", "validation gap", "torque gap", "BIC", ""],
+                       iteration_rows, digits=4),
+        "",
+        "## Where the starting model's residual is (fit and validation parts)",
+        "",
+        "The residual binned by each variable (quartiles; direction of motion; homing); the spread is the "
+        "largest minus the smallest bin mean, in degrees or millimetres: large means the residual depends on it.",
+        "",
+        markdown_table(list(dependence.columns), dependence.values.tolist(), digits=4),
+        "",
+        "## Fitted parameters of the named effects",
+        "",
+        markdown_table(["effect", "parameter", "joint", "fitted", "unit"], parameter_table, digits=4)
+        if parameter_table else "(none named)",
+        "",
+        *_drag_section(result, signals, split),
+        "## Signature of the unexplained residual (fit and validation parts)",
+        "",
+        "\n".join(f"- {s}" for s in result.signature) if result.signature else
+        ("(a residual is left but no term of the generic library stands out)" if result.unexplained
+         else "(nothing unexplained)"),
+        "",
+    ]
+    figures = _plots(result, signals, split, out)
+    table.to_csv(out / "localization.csv", index=False)
+    sections += ["## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figures] + [""]
+    md_path = write_text(out / "report.md", "\n".join(sections))
+    return [json_path, md_path, *figures]
+
+
+def _insert_before_figures(out: Path, lines: list[str]) -> None:
+    """Insert a section (``lines``) into ``out/report.md`` just before its figures."""
+    md = Path(out) / "report.md"
+    text = md.read_text()
+    cut = text.index("## Figures")
+    write_text(md, text[:cut] + "\n".join(lines) + "\n" + text[cut:])
+
+
+def structure_shares(result: DiscrepancyResult) -> list[float] | None:
+    """The per-joint shares of the structure check, as a JSON list (None where the record was too short)."""
+    return None if result.residual_structure is None else [float(v) for v in result.residual_structure]
+
+
+
+def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,
+                            result: DiscrepancyResult, size_factor: float = 1.0, log_rate: float = LOG_RATE) -> dict:
+    """After the blind analysis: add the hidden effect, the true parameters, the oracle (with the
+    analysis's backfit cap) and the floor (:func:`~studies.common.discrepancy_runs.floor_gap`: the
+    gap the starting model leaves on the same seed's record with nothing hidden) to the report."""
+    report_path = Path(out) / "report.json"
+    document = json.loads(report_path.read_text())
+    fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds)
+    floor = result.gap_before if not hidden else floor_gap(seed, duration, log_rate_options(log_rate))
+    bound = floor_bound(floor, result.gap_before, result.units)
+    to_report = report_scale(result.units)
+    before = pooled_rmse(result.residual_before.joints, result.units)
+    oracle_after = float(np.sqrt(np.mean(np.square(fit.gap_after * to_report))))
+    oracle_shrink = float(1.0 - oracle_after / before) if before > 0 else 0.0
+    fraction = float(result.shrink / oracle_shrink) if oracle_shrink > 0 else None
+    payload_kg = HIDDEN_PAYLOAD_KG * size_factor if "payload" in hidden else 0.0
+    structure = list(generator.enabled_effects) + (["payload"] if payload_kg else [])
+
+    def truth_of(name):
+        if name not in structure:
+            return "absent from the generator"
+        return true_values(generator, name, payload_kg) or "drawn at each homing"
+
+    named = set(hidden) | set(result.named_effects) | set(fit.named_effects)
+    truth = {name: truth_of(name) for name in named}
+    document.update({
+        "hidden_effect": list(hidden),
+        "seed": seed,
+        "duration_s": duration,
+        "size_factor": size_factor,
+        "log_rate_hz": log_rate,
+        "generator_structure": structure,
+        "true_parameters": to_jsonable({k: v for k, v in truth.items() if isinstance(v, dict)}),
+        "oracle_gap_after": [float(v) for v in fit.gap_after],
+        "oracle_shrink": oracle_shrink,
+        "oracle_fitted_parameters": to_jsonable(fit.fitted_parameters),
+        "fraction_of_oracle_shrink": fraction,
+        "oracle_residual_structure": structure_shares(fit),
+        "oracle_backfit_capped": list(fit.backfit_capped),
+        "floor_gap": [float(v) for v in floor],
+        "floor_bound": bound,
+    })
+    write_json(report_path, document)
+    units = report_unit_names(result.units)
+    rows = [[name, f"{b:.4f} {u}", f"{a:.4f} {u}", f"{o:.4f} {u}"] for name, b, a, o, u in
+            zip(result.joint_names, in_report_units(result.gap_before, result.units), in_report_units(result.gap_after, result.units),
+                in_report_units(fit.gap_after, result.units), units)]
+    fitted_rows = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names, truth)
+    oracle_rows = parameter_rows(fit.fitted_parameters, fit.parameter_units, result.joint_names, truth)
+    section = [
+        "## What generated the data (added after the blind analysis)",
+        "",
+        f"Hidden effect: {', '.join(hidden) or 'none'} (seed {seed}, {duration:.0f} s of random motion logged at "
+        f"{log_rate:g} Hz, "
+        + ("at its default size" if size_factor == 1.0 else f"at {size_factor:g} times its default size")
+        + f"); the generator's effects: {', '.join(structure)}.",
+        "",
+        "The oracle fits the generator's true structure to the same fit part (the starting structure "
+        "identified as above, then the hidden effects added with their parameters fitted, never given): its "
+        "held-out gap is what a model of the right structure closes.",
+        "",
+        markdown_table(["joint", "starting model", "with named effects", "oracle"], rows),
+        "",
+        f"- shrink: workflow {100 * result.shrink:.1f} %, oracle {100 * oracle_shrink:.1f} %"
+        + (f"; the workflow reached {100 * fraction:.0f} % of the oracle's shrink" if fraction is not None else ""),
+        *([] if fit.residual_structure is None or result.residual_structure is None else [
+            f"- repeatable structure of the residual left (largest share of one joint's variance): workflow "
+            f"{largest_share(result.residual_structure):.0f} %, oracle {largest_share(fit.residual_structure):.0f} % "
+            "(flagged at "
+            f"{100 * WorkflowSettings().structure_share:.0f} %): the oracle's shows what a model of the right "
+            "structure, fitted to this record, still leaves"]),
+        ("- floor: nothing is hidden, so the starting model's held-out gap is the floor under every analysis of "
+         "this motion" if not hidden else
+         f"- floor: the same seed's record with nothing hidden leaves a held-out gap of "
+         f"{pooled_rmse(np.asarray(floor)[None, :], result.units):.5f} (pooled, deg and mm) after the starting "
+         f"model, against {before:.5f} here: about {100 * bound:.1f} % of this gap is the most a model replayed "
+         "this way closes (`python studies/discrepancy_floor.py`)"),
+        "",
+        "Named effects, fitted beside true values:",
+        "",
+        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit"], fitted_rows, digits=4)
+        if fitted_rows else "(none named)",
+        "",
+        "The oracle's fitted parameters beside the true values:",
+        "",
+        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit"], oracle_rows, digits=4)
+        if oracle_rows else "(nothing hidden)",
+        "",
+    ]
+    _insert_before_figures(out, section)
+    return document
+
+
+def add_learned_comparison(out: Path, result: DiscrepancyResult, scores: dict) -> dict:
+    """Add learned calibrators' held-out RMSE on the same split (``scores``: name -> (J,) SI) to the
+    report, beside the starting model and the model with the named effects."""
+    report_path = Path(out) / "report.json"
+    document = json.loads(report_path.read_text())
+    scale = report_scale(result.units)
+
+    def pooled(gap):
+        return float(np.sqrt(np.mean(np.square(np.asarray(gap) * scale))))
+
+    rows = [["starting model", *(in_report_units(result.gap_before, result.units)), pooled(result.gap_before)],
+            [f"with named effects ({', '.join(result.named_effects) or 'none'})",
+             *(in_report_units(result.gap_after, result.units)), pooled(result.gap_after)]]
+    rows += [[name, *(in_report_units(gap, result.units)), pooled(gap)] for name, gap in scores.items()]
+    best = min(scores, key=lambda n: pooled(scores[n]))
+    document["learned_calibrators"] = {name: {"gap": [float(v) for v in gap], "pooled_report_units": pooled(gap)}
+                                       for name, gap in scores.items()}
+    document["best_learned_calibrator"] = best
+    write_json(report_path, document)
+    units = report_unit_names(result.units)
+    section = [
+        "## Compared with learned calibrators on the same split",
+        "",
+        "Trained on the whole random motion (the fit and validation parts) with the six commanded joints as "
+        "inputs, scored on the held-out peg transfer; RMSE per joint and pooled.",
+        "",
+        markdown_table(["model"] + [f"{n} ({u})" for n, u in zip(result.joint_names, units)] + ["pooled"], rows,
+                       digits=3),
+        "",
+        f"Best learned calibrator: {best} ({pooled(scores[best]):.3f} pooled, against "
+        f"{pooled(result.gap_after):.3f} with the named effects).",
+        "",
+    ]
+    _insert_before_figures(out, section)
+    return document
