@@ -375,10 +375,45 @@ def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
     first = report["named_effects"][0]
     assert set(report["parameter_units"][first]) == set(report["fitted_parameters"][first])
     assert report["report_units"] == ["deg", "mm"]
+    # each fitted value with the range it was searched in, in SI, and the ends it stopped at
+    assert set(report["parameter_bounds"]) == set(report["fitted_parameters"])
+    for block, values in report["fitted_parameters"][first].items():
+        lower, upper = report["parameter_bounds"][first][block]
+        assert len(lower) == len(upper) == len(np.atleast_1d(values))
+        assert np.all(np.array(lower) <= np.array(values)) and np.all(np.array(values) <= np.array(upper))
+    assert isinstance(report["at_bound"], list)
     text = (tmp_path / "report.md").read_text()
     assert text.startswith("# Model discrepancy") and "lower BIC is better" in text and "torque gap" in text
+    assert "| search range | at bound |" in text
     assert all(p.exists() and p.stat().st_size > 0 for p in paths)
     assert {p.suffix for p in paths} >= {".json", ".md", ".png"}
+
+
+def test_a_fitted_value_at_an_end_of_its_search_range_is_marked_with_that_end():
+    from simulation.discrepancy.workflow import values_at_bounds
+    from studies.common.discrepancy_report import parameter_rows, values_at_their_bounds
+
+    assert values_at_bounds([0.0, 0.5, 1.0, 1.0 - 1e-9, 1e-3], 0.0, 1.0) == ["lower", "", "upper", "upper", ""]
+    assert values_at_bounds([-0.1, 0.0], [-0.1, -1.0], [0.1, 1.0]) == ["lower", ""]
+    fitted = {"hysteresis": {"width": np.deg2rad([0.2, 0.3]), "shape": np.array([0.4, 1.0])},
+              "gravity_model_error": {"scale_error": np.array([0.1, 0.2])}}
+    units = {"hysteresis": {"width": ["rad", "m"], "shape": ["1", "1"]},
+             "gravity_model_error": {"scale_error": ["1", "1"]}}
+    bounds = {"hysteresis": {"width": ([1e-6, 1e-6], [0.05, 0.05]), "shape": ([0.0, 0.0], [1.0, 1.0])}}
+    rows = parameter_rows(fitted, units, ("a", "b"), bounds=bounds)
+    assert rows[0][:5] == ["hysteresis", "width", "a", pytest.approx(0.2), "deg"]
+    assert rows[0][5] == f"[{np.rad2deg(1e-6):.4g}, {np.rad2deg(0.05):.4g}]" and rows[0][6] == ""
+    assert rows[1][4:] == ["mm", "[0.001, 50]", ""]  # metres shown in millimetres, the range too
+    assert rows[3][5:] == ["[0, 1]", "upper"]
+    assert rows[4][5:] == ["-", "-"]  # fitted without bounds (the controller's least squares)
+    assert all(len(row) == 5 for row in parameter_rows(fitted, units, ("a", "b")))  # no bounds asked, no columns
+
+    class Result:
+        joint_names = ("a", "b")
+        fitted_parameters = fitted
+        parameter_bounds = bounds
+
+    assert values_at_their_bounds(Result()) == ["hysteresis.shape[b] (upper)"]
 
 
 def _raven_like_signals(truth, time):

@@ -228,7 +228,12 @@ class DiscrepancyResult:
     ``library`` are the candidates screened; ``signature`` describes in words what the final
     model leaves unexplained on the fit and validation parts, strongest first (empty when
     nothing is unexplained; :func:`~simulation.discrepancy.signature.describe_residual`).
-    ``parameter_units`` gives the SI unit of each fitted parameter value, like ``fitted_parameters``.
+    ``parameter_units`` gives the SI unit of each fitted parameter value, like ``fitted_parameters``;
+    ``parameter_bounds`` the search range each value was fitted in, ``{effect: {block: (lower,
+    upper)}}``, each a list per value in SI (a value at an end of its range is where the fit was
+    stopped, not necessarily where the data put it; :func:`values_at_bounds`), for the effects the
+    workflow fits itself: not for those the base identification fits with the starting structure
+    (in its own ranges) nor for the controller replay's least-squares scale (unbounded).
     ``torque_gap_before``/``torque_gap_after`` are the held-out RMS of the motor-torque residual
     per joint (N m, N m, N at the gearbox output), None without torques. ``equivalent`` maps a
     named effect to the candidates that fitted the data exactly as well (the same residual, e.g. two
@@ -272,6 +277,29 @@ class DiscrepancyResult:
     controller: ControllerCheck | None = None
     backfit_capped: tuple[str, ...] = ()
     backfit_rounds: int | None = None
+    parameter_bounds: dict = field(default_factory=dict)
+
+
+BOUND_TOLERANCE = 1e-6
+"""A fitted value within this fraction of its search range from an end of it is at that end."""
+
+
+def values_at_bounds(values, lower, upper) -> list[str]:
+    """For each value: ``"lower"`` or ``"upper"`` where it sits at that end of its search range
+    (within :data:`BOUND_TOLERANCE` of the range), ``""`` inside it. The three are broadcast together."""
+    values, lower, upper = np.broadcast_arrays(*(np.atleast_1d(np.asarray(a, dtype=float)) for a in
+                                                 (values, lower, upper)))
+    reach = BOUND_TOLERANCE * np.maximum(upper - lower, 0.0)
+    return ["lower" if v - lo <= r else "upper" if hi - v <= r else "" for v, lo, hi, r in zip(values, lower, upper,
+                                                                                            reach)]
+
+
+def candidate_bounds(candidate: Candidate) -> dict[str, tuple[list[float], list[float]]]:
+    """The search range of each of ``candidate``'s parameter blocks, one (lower, upper) pair of lists
+    per block, a value per parameter (SI)."""
+    return {b.name: (np.broadcast_to(np.asarray(b.lower, dtype=float), (b.size,)).tolist(),
+                     np.broadcast_to(np.asarray(b.upper, dtype=float), (b.size,)).tolist())
+            for b in candidate.blocks}
 
 
 SCREEN_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)
@@ -496,6 +524,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
     named: list[str] = []
     fitted_parameters: dict = {}
     parameter_units: dict = {}
+    parameter_bounds: dict = {}
     iterations: list[Iteration] = []
     structure = tuple(base.structure) if base is not None else ()
 
@@ -719,6 +748,10 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                 named.append(candidate.name)
                 fitted_parameters[candidate.name] = values
                 parameter_units[candidate.name] = {b.name: list(b.units()) for b in candidate.blocks}
+                if base is None or candidate.name not in base.fittable:
+                    # the identification fits the others in ranges of its own (non-negative frictions,
+                    # free ratio errors), not in the candidate's
+                    parameter_bounds[candidate.name] = candidate_bounds(candidate)
                 break
         iterations.append(Iteration(gap_before=current_gap, scores=tuple(scores), named=accepted,
                                     fit_gap_before=current_fit_gap, bic_before=current_bic,
@@ -769,4 +802,5 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         controller=controller_check,
         backfit_capped=tuple(s.name for it in iterations for s in it.scores if s.name == it.named and s.backfit_capped),
         backfit_rounds=settings.backfit_rounds if base is not None else None,
+        parameter_bounds=parameter_bounds,
     )

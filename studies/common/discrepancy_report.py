@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from simulation.discrepancy import DiscrepancyResult, WorkflowSettings, localize, strongest_dependence
+from simulation.discrepancy.workflow import values_at_bounds
 from simulation.discrepancy.signals import pooled_rmse, report_scale
 from simulation.engine.robot import LOG_RATE
 from studies.common.discrepancy_runs import (
@@ -78,8 +79,13 @@ def value_labels(size: int, joint_names, block: str = "") -> list[str]:
     return [str(i) for i in range(size)]
 
 
-def parameter_rows(fitted: dict, units: dict, joint_names, truth: dict | None = None) -> list[list]:
-    """Rows (effect, parameter, joint, fitted[, true], unit) in report units, one per value."""
+def parameter_rows(fitted: dict, units: dict, joint_names, truth: dict | None = None,
+                   bounds: dict | None = None) -> list[list]:
+    """Rows (effect, parameter, joint, fitted[, true], unit[, search range, at bound]) in report
+    units, one per value. With ``bounds`` (``DiscrepancyResult.parameter_bounds``) each row also
+    gives the range the value was searched in and "lower" or "upper" where it sits at an end of it
+    ("-" for a value fitted outside the workflow's own fits: by the identification, or the
+    controller replay's unbounded gravity-model scale)."""
     rows = []
     for effect, blocks in fitted.items():
         for block, values in blocks.items():
@@ -87,6 +93,8 @@ def parameter_rows(fitted: dict, units: dict, joint_names, truth: dict | None = 
             block_units = units.get(effect, {}).get(block, [""] * values.size)
             true = None if truth is None else truth.get(effect)
             true = true.get(block) if isinstance(true, dict) else true
+            searched = None if bounds is None else bounds.get(effect, {}).get(block)
+            ends = None if searched is None else values_at_bounds(values, *searched)
             labels = value_labels(values.size, joint_names, block)
             for i, (label, value, unit) in enumerate(zip(labels, values, block_units)):
                 shown, factor = REPORT_UNITS.get(unit, (unit, 1.0))
@@ -94,8 +102,34 @@ def parameter_rows(fitted: dict, units: dict, joint_names, truth: dict | None = 
                 if truth is not None:
                     row.append("-" if true is None else true if isinstance(true, str)
                                else np.asarray(true, dtype=float).ravel()[i] * factor)
-                rows.append(row + [shown or "1"])
+                row.append(shown or "1")
+                if bounds is not None:
+                    if searched is None:
+                        row += ["-", "-"]
+                    else:
+                        lower, upper = (np.broadcast_to(np.asarray(e, dtype=float), values.shape)[i] * factor
+                                        for e in searched)
+                        row += [f"[{lower:.4g}, {upper:.4g}]", ends[i]]
+                rows.append(row)
     return rows
+
+
+def values_at_their_bounds(result: DiscrepancyResult, joint_names=None) -> list[str]:
+    """The named effects' fitted values at an end of their search range, as
+    ``"effect.parameter[what] (lower|upper)"``: where the fit was stopped rather than where the data
+    put the value (a lower bound of zero: none of that effect on that joint)."""
+    names = result.joint_names if joint_names is None else joint_names
+    found = []
+    for effect, blocks in result.fitted_parameters.items():
+        for block, values in blocks.items():
+            searched = result.parameter_bounds.get(effect, {}).get(block)
+            if searched is None:
+                continue
+            values = np.atleast_1d(np.asarray(values, dtype=float))
+            for label, end in zip(value_labels(values.size, names, block), values_at_bounds(values, *searched)):
+                if end:
+                    found.append(f"{effect}.{block}[{label}] ({end})")
+    return found
 
 
 def file_digest(path: Path) -> str:
@@ -155,6 +189,8 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "controller": _controller_document(result),
         "fitted_parameters": to_jsonable(result.fitted_parameters),
         "parameter_units": to_jsonable(result.parameter_units),
+        "parameter_bounds": to_jsonable(result.parameter_bounds),
+        "at_bound": values_at_their_bounds(result),
         "units": list(result.units),
         "joints": list(result.joint_names),
         "gap_before_report_units": in_report_units(result.gap_before, result.units),
@@ -280,7 +316,8 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
                                    s.validation_gap, s.torque_gap, s.bic, "named" if it.named == s.name else ""])
     start = ", ".join(starting_structure) if starting_structure else DVRK_STARTING_MODEL
     kind = "Ablation (the model lacks a term the data have)" if analysis == "ablation" else "Blind analysis"
-    parameter_table = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names)
+    parameter_table = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names,
+                                     bounds=result.parameter_bounds)
     sections = [
         f"# Model discrepancy: {source.get('description', '')}",
         "",
@@ -333,7 +370,13 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         "",
         "## Fitted parameters of the named effects",
         "",
-        markdown_table(["effect", "parameter", "joint", "fitted", "unit"], parameter_table, digits=4)
+        "Each value with the range it was searched in; \"lower\" or \"upper\": the fit stopped at that end of "
+        "its range, so the data may put the value beyond it (a lower bound of 0: none of the effect on that "
+        "joint); \"-\": fitted with the starting structure by the identification, in its own ranges "
+        "(non-negative frictions, free ratio errors), or by the controller replay's least squares (unbounded).",
+        "",
+        markdown_table(["effect", "parameter", "joint", "fitted", "unit", "search range", "at bound"], parameter_table,
+                       digits=4)
         if parameter_table else "(none named)",
         "",
         *_drag_section(result, signals, split),
@@ -404,6 +447,8 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "fraction_of_oracle_shrink": fraction,
         "oracle_residual_structure": structure_shares(fit),
         "oracle_backfit_capped": list(fit.backfit_capped),
+        "oracle_parameter_bounds": to_jsonable(fit.parameter_bounds),
+        "oracle_at_bound": values_at_their_bounds(fit, result.joint_names),
         "floor_gap": [float(v) for v in floor],
         "floor_bound": bound,
     })
@@ -412,8 +457,10 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
     rows = [[name, f"{b:.4f} {u}", f"{a:.4f} {u}", f"{o:.4f} {u}"] for name, b, a, o, u in
             zip(result.joint_names, in_report_units(result.gap_before, result.units), in_report_units(result.gap_after, result.units),
                 in_report_units(fit.gap_after, result.units), units)]
-    fitted_rows = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names, truth)
-    oracle_rows = parameter_rows(fit.fitted_parameters, fit.parameter_units, result.joint_names, truth)
+    fitted_rows = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names, truth,
+                                 result.parameter_bounds)
+    oracle_rows = parameter_rows(fit.fitted_parameters, fit.parameter_units, result.joint_names, truth,
+                                 fit.parameter_bounds)
     section = [
         "## What generated the data (added after the blind analysis)",
         "",
@@ -445,12 +492,14 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "",
         "Named effects, fitted beside true values:",
         "",
-        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit"], fitted_rows, digits=4)
+        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit", "search range", "at bound"],
+                       fitted_rows, digits=4)
         if fitted_rows else "(none named)",
         "",
         "The oracle's fitted parameters beside the true values:",
         "",
-        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit"], oracle_rows, digits=4)
+        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit", "search range", "at bound"],
+                       oracle_rows, digits=4)
         if oracle_rows else "(nothing hidden)",
         "",
     ]
