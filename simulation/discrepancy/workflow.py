@@ -606,7 +606,6 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         return chi, np.array([value]), (trial if trial is not None else model)
 
     def trial_model(candidate, weights, scanned, screened_chi):
-        nonlocal structure
         if base is not None and candidate.name in base.fittable:
             trial = rebase(model, structure + (candidate.name,), extras_of(model))
             # None: the extended structure cannot be identified on these data

@@ -11,3 +11,10 @@ from simulation.recordings.limits import (
     find_invalid,
 )
 from simulation.recordings.dvrk import DvrkDataError, DvrkDataset, load_dvrk, locate_dvrk_data
+
+__all__ = [
+    "BagFormatError", "read_bag", "read_bag_folder", "write_bag",
+    "TableFormatError",
+    "ON_INVALID", "VALID_COLUMN", "ImpossibleValueError", "ImpossibleValueWarning", "RecordingLimits", "find_invalid",
+    "DvrkDataError", "DvrkDataset", "load_dvrk", "locate_dvrk_data",
+]

@@ -595,9 +595,9 @@ def _check_coupling(out, columns, lim: RecordingLimits) -> None:
 
 def _check_rotations(out, columns, suffix) -> None:
     entries = [f"R{row}{col}" for row in range(3) for col in range(3)]
-    for field in ("ori", "ori_d"):
+    for block_name in ("ori", "ori_d"):
         for tail in ("", suffix):
-            block = _arm_blocks(columns, field, entries, tail)
+            block = _arm_blocks(columns, block_name, entries, tail)
             if block is None:
                 continue
             matrices = block.reshape(-1, 3, 3)
@@ -605,7 +605,7 @@ def _check_rotations(out, columns, suffix) -> None:
             with np.errstate(invalid="ignore", over="ignore"):
                 error = np.abs(matrices @ matrices.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2))
             bad = np.isfinite(error) & (error > 1e-3) & ~absent
-            out.add(f"{field}{tail}", bad, error, "R R^T = I within 1e-3 (or all zero)")
+            out.add(f"{block_name}{tail}", bad, error, "R R^T = I within 1e-3 (or all zero)")
 
 
 def _check_jumps(out, time, columns, lim: RecordingLimits, restart: np.ndarray, suffix: str) -> None:
@@ -624,8 +624,8 @@ def _check_jumps(out, time, columns, lim: RecordingLimits, restart: np.ndarray, 
         ]
         if not tail:
             checks.append(("truth", GROUND_TRUTH_JOINTS, lim.joint_speed[:3], np.full(3, 1e-6), restart, None))
-        for field, names, rate, tolerance, reset_here, unit in checks:
-            block = _arm_blocks(columns, field, names, tail)
+        for block_name, names, rate, tolerance, reset_here, unit in checks:
+            block = _arm_blocks(columns, block_name, names, tail)
             if block is None or block.shape[0] < 2:
                 continue
             scale = np.max(np.where(np.isfinite(block), np.abs(block), 0.0), axis=0)
@@ -634,7 +634,7 @@ def _check_jumps(out, time, columns, lim: RecordingLimits, restart: np.ndarray, 
                                    for j in range(len(names))])
             for j, name in enumerate(names):
                 u = unit or ("m" if j == 2 else "rad")
-                out.add(f"{field}.{name}{tail}", bad[:, j], block[:, j],
+                out.add(f"{block_name}.{name}{tail}", bad[:, j], block[:, j],
                         lambda i, j=j, u=u, rate=rate: f"|jump| <= {rate[j]:.6g} {u}/s x elapsed time "
                                                        "(motor no-load speed)")
         motors, counts = _arm_blocks(columns, "mpos", DOF_NAMES, tail), _arm_blocks(columns, "encVals", DOF_NAMES, tail)
