@@ -176,6 +176,12 @@ def test_nothing_hidden_names_nothing(cli_runs):
     assert max(abs(v) for v in report["controller"]["scale_error"]) < 0.005
     # nothing named: the residual was checked for structure that repeats, and none was found
     assert len(report["residual_structure"]) == 3
+    # the starting structure's parameters, identified once (nothing named, no backfit) and beside the generator's
+    starting = report["starting_parameters"]
+    assert list(starting["identified"]) == list(STARTING_STRUCTURE) and starting["final"] == starting["identified"]
+    assert starting["units"]["cable_stretch"]["stiffness"] == ["N m/rad", "N m/rad", "N/m"]
+    assert set(report["true_starting_parameters"]) == set(STARTING_STRUCTURE)
+    assert "## Parameters of the starting structure" in (cli_runs("none") / "report.md").read_text()
     assert max(report["residual_structure"]) < WorkflowSettings().structure_share
     # with nothing hidden the oracle is the starting model: the same residual, the same check
     assert report["oracle_residual_structure"] == report["residual_structure"]

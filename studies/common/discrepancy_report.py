@@ -22,9 +22,11 @@ from simulation.discrepancy import DiscrepancyResult, WorkflowSettings, localize
 from simulation.discrepancy.workflow import values_at_bounds
 from simulation.discrepancy.signals import pooled_rmse, report_scale
 from simulation.engine.robot import LOG_RATE
+from simulation.discrepancy.replay import RavenModel
 from studies.common.discrepancy_runs import (
     HIDDEN_PAYLOAD_KG,
     STARTING_STRUCTURE,
+    STRUCTURE_FIELDS,
     drift_record_note,
     floor_bound,
     floor_gap,
@@ -32,6 +34,7 @@ from studies.common.discrepancy_runs import (
     log_rate_options,
     oracle,
     short_record_note,
+    structure_values,
     true_values,
 )
 from studies.common.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text
@@ -64,6 +67,10 @@ def value_labels(size: int, joint_names, block: str = "") -> list[str]:
     from simulation.discrepancy.generic import HYSTERESIS_WIDTH_FRACTIONS
 
     j = len(joint_names)
+    if block == "delta" and size == 3:
+        from simulation.identification.layout import COUPLING_NAMES
+
+        return [f"coupling term {name}" for name in COUPLING_NAMES]
     if block == "weight" and size == j * j * len(HYSTERESIS_WIDTH_FRACTIONS):
         return [f"{joint_names[r]} from {joint_names[c]}, play of 1/{round(1 / f)} of its range"
                 for r in range(j) for c in range(j) for f in HYSTERESIS_WIDTH_FRACTIONS]
@@ -111,6 +118,39 @@ def parameter_rows(fitted: dict, units: dict, joint_names, truth: dict | None = 
                                         for e in searched)
                         row += [f"[{lower:.4g}, {upper:.4g}]", ends[i]]
                 rows.append(row)
+    return rows
+
+
+def structure_document(result: DiscrepancyResult) -> dict | None:
+    """The starting structure's parameters (SI) as identified at the start and in the final model
+    (re-identified by the backfit around the named effects), with their units; None for a model
+    that is not a RAVEN-II cable model (the dVRK's)."""
+    if not isinstance(result.model_before, RavenModel):
+        return None
+    start = structure_values(result.model_before.params)
+    return {"identified": start, "final": structure_values(result.model_after.params),
+            "units": {name: {field: list(STRUCTURE_FIELDS[name][field]) for field in fields}
+                      for name, fields in start.items()}}
+
+
+def structure_rows(document: dict, joint_names, truth: dict | None = None) -> list[list]:
+    """Rows (effect, parameter, what, identified, final[, true], unit) in report units of
+    :func:`structure_document`'s ``document`` (``truth``: a generator's values, like it)."""
+    from simulation.identification.layout import DEFAULT_FIXED
+
+    rows = []
+    for effect, fields in document["identified"].items():
+        for field, start in fields.items():
+            final = document["final"].get(effect, {}).get(field, [np.nan] * len(start))
+            shown_field = f"{field} (held at its nominal)" if f"{effect}.{field}" in DEFAULT_FIXED else field
+            true = None if truth is None else truth.get(effect, {}).get(field)
+            for i, label in enumerate(value_labels(len(start), joint_names, field)):
+                shown, factor = REPORT_UNITS.get(document["units"][effect][field][i],
+                                                 (document["units"][effect][field][i], 1.0))
+                row = [effect, shown_field, label, start[i] * factor, final[i] * factor]
+                if truth is not None:
+                    row.append("-" if true is None else true[i] * factor)
+                rows.append(row + [shown])
     return rows
 
 
@@ -191,6 +231,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "parameter_units": to_jsonable(result.parameter_units),
         "parameter_bounds": to_jsonable(result.parameter_bounds),
         "at_bound": values_at_their_bounds(result),
+        "starting_parameters": structure_document(result),
         "units": list(result.units),
         "joints": list(result.joint_names),
         "gap_before_report_units": in_report_units(result.gap_before, result.units),
@@ -268,6 +309,20 @@ of the motor-torque residual on the validation part, each joint over the current
 misfit (1 = as large as the current model's; "-" without torques). The candidate named is the one
 of lowest BIC, below the current model's, that cuts both joint gaps by at least 10 % (or, for an
 effect seen only in the motor torques, the torque gap on both parts)."""
+
+
+def _structure_section(result: DiscrepancyResult) -> list[str]:
+    """The starting structure's identified parameters at the start and in the final model (RAVEN-II)."""
+    document = structure_document(result)
+    if document is None:
+        return []
+    return ["## Parameters of the starting structure", "",
+            "Identified on the fit part at the start (step 0), and in the final model: re-identified with the "
+            "named effects' shares removed, where a backfit ran (a parameter that moves between the two had taken "
+            "part of a missing effect). The cable damping is held at its round nominal value (its fit is biased "
+            "low by the encoders' noise on the stretch rate), not fitted.", "",
+            markdown_table(["effect", "parameter", "joint", "identified", "final", "unit"],
+                           structure_rows(document, result.joint_names), digits=4), ""]
 
 
 def _drag_section(result: DiscrepancyResult, signals, split) -> list[str]:
@@ -379,6 +434,7 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
                        digits=4)
         if parameter_table else "(none named)",
         "",
+        *_structure_section(result),
         *_drag_section(result, signals, split),
         "## Signature of the unexplained residual (fit and validation parts)",
         "",
@@ -433,6 +489,8 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
 
     named = set(hidden) | set(result.named_effects) | set(fit.named_effects)
     truth = {name: truth_of(name) for name in named}
+    starting = structure_document(result)
+    starting_truth = structure_values(generator)
     document.update({
         "hidden_effect": list(hidden),
         "seed": seed,
@@ -449,6 +507,7 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "oracle_backfit_capped": list(fit.backfit_capped),
         "oracle_parameter_bounds": to_jsonable(fit.parameter_bounds),
         "oracle_at_bound": values_at_their_bounds(fit, result.joint_names),
+        "true_starting_parameters": starting_truth,
         "floor_gap": [float(v) for v in floor],
         "floor_bound": bound,
     })
@@ -502,6 +561,11 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
                        oracle_rows, digits=4)
         if oracle_rows else "(nothing hidden)",
         "",
+        *([] if starting is None else [
+            "The starting structure's parameters beside the generator's (identified at the start, and in the "
+            "final model):", "",
+            markdown_table(["effect", "parameter", "joint", "identified", "final", "true", "unit"],
+                           structure_rows(starting, result.joint_names, starting_truth), digits=4), ""]),
     ]
     _insert_before_figures(out, section)
     return document

@@ -547,6 +547,26 @@ def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rou
                         controller=controller_of(dataset))
 
 
+STRUCTURE_FIELDS = {
+    "cable_stretch": {"stiffness": ("N m/rad", "N m/rad", "N/m"), "hardening": ("rad", "rad", "m"),
+                      "damping": ("N m s/rad", "N m s/rad", "N s/m")},
+    "gravity_stretch": {"load_scale": ("1", "1", "1")},
+    "coupling": {"delta": ("1", "1", "1")},
+    "coulomb_friction": {"force": ("N m", "N m", "N")},
+    "viscous_friction": {"coefficient": ("N m s/rad", "N m s/rad", "N s/m")},
+}
+"""The parameters of each effect of :data:`STARTING_STRUCTURE` that the identification fits, with
+the SI unit of each of their three values (the coupling's three: the terms c01, c02, c12)."""
+
+
+def structure_values(params: RavenParameters, structure=STARTING_STRUCTURE) -> dict[str, dict[str, list[float]]]:
+    """The values of the ``structure``'s effects in ``params`` (:data:`STRUCTURE_FIELDS`; SI), for
+    the effects ``params`` has enabled: what the identification fitted, or a generator's values."""
+    return {name: {field: np.asarray(getattr(params.effect(name), field), dtype=float)[:3].tolist()
+                   for field in STRUCTURE_FIELDS[name]}
+            for name in structure if name in STRUCTURE_FIELDS and params.is_enabled(name)}
+
+
 def true_values(generator: RavenParameters, name: str, payload_kg: float = 0.0) -> dict | None:
     """The generator's values of effect ``name`` in its candidate's parameters (for reports after the
     analysis), or None where the generator holds no single value (per-homing offsets are drawn
