@@ -196,6 +196,11 @@ def test_an_effect_missing_from_the_library_is_unexplained_with_a_signature(cli_
     assert report["named_effects"] == [], report["named_effects"]
     assert report["signature"], "an unexplained residual needs a signature"
     assert all(isinstance(s, str) and s for s in report["signature"])
+    # and it names the form: each joint whose runout stands above the noise, periodic in its own
+    # motor's angle at the capstan, once per revolution
+    for joint in ("elbow", "z_ins"):
+        assert any(s.startswith(f"{joint}: periodic in the {joint} motor angle at the capstan, one cycle per revolution")
+                   for s in report["signature"]), report["signature"]
     # the oracle (the true structure fitted) closes what the library could not, and leaves no
     # residual that repeats: the flag was raised by the missing effect, not by the check itself
     assert report["hidden_effect"] == ["capstan_runout"]

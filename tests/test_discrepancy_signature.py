@@ -52,7 +52,7 @@ def test_runout_in_one_motor_angle_is_named_with_its_amplitude():
     assert first.amplitude == pytest.approx(1e-3, rel=0.1)
     sentence = signature.sentences()[0]
     assert "elbow motor angle" in sentence and "one cycle per revolution" in sentence
-    assert "0.057 deg" in sentence
+    assert f", {np.rad2deg(first.amplitude):.2g} deg (" in sentence  # 1e-3 rad is 0.057 deg
     assert signature.explained[1] > 0.9
 
 
@@ -208,3 +208,25 @@ def test_the_unmodelled_encoder_error_is_one_and_two_cycles_per_revolution():
     for bad in (0.0, -1.0, np.nan):
         with pytest.raises(ValueError, match="amplitude must be a positive number of degrees"):
             EncoderError.drawn(bad, seed=0)
+
+
+def test_no_term_is_said_to_be_larger_than_the_residual_it_describes():
+    # the elbow's error grows with the square of its distance from mid-range, with the sign of the
+    # side (an odd, curved error no column has): the sparse fit shares it between correlated
+    # columns (the position's linear and quadratic terms, the motor harmonic), one of them with a
+    # contribution larger than the whole residual; its sentence gives what it adds instead
+    s = synthetic_signals(4)
+    residual = noise(s, 14)
+    side = s.truth[:, 1] - s.truth[:, 1].mean()
+    curve = np.sign(side) * side ** 2
+    residual[:, 1] += 3e-4 * (curve - curve.mean()) / curve.std()
+    signature = describe_residual(s, residual)
+    spread = np.std(residual[:, 1])
+    per_size = {"joint harmonic": np.sqrt(0.5), "motor harmonic": np.sqrt(0.5)}
+    elbow = [t for t in signature.terms if t.joint == "elbow" and t.kind not in ("constant", "time", "sign of velocity")]
+    position = [t for t in elbow if t.kind == "position"]
+    assert position and position[0].share > 0.8, elbow
+    for term in elbow:
+        assert term.amplitude * per_size.get(term.kind, 1.0) <= spread * (1 + 1e-9), term
+    # where it had to be replaced, the size is that of the increment its share measures
+    assert position[0].amplitude == pytest.approx(np.sqrt(position[0].share) * spread, rel=1e-9)

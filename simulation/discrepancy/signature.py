@@ -67,7 +67,14 @@ mean is at least ``min_share`` of the residual's mean square.
 
 Amplitudes, in the residual's SI unit: a sinusoid's amplitude; the half-height of a sign step; the
 change over the record of a linear drift; the offset of a constant; for every other term the root
-mean square of its contribution about its mean (written "RMS" in the sentence).
+mean square of its contribution about its mean (written "RMS" in the sentence). They are the
+sparse fit's, so that a term of the right form has its own size even beside correlated ones,
+except where that contribution alone would be larger than the residual it describes (its root
+mean square above the residual's standard deviation): correlated columns then share one effect
+with large coefficients of opposite sign (over a wrist's range of under a revolution a harmonic
+of its angle is nearly a quadratic in it: on the dVRK an 8.5 deg "sinusoid" in a 1.6 deg
+residual), and the amplitude is instead that of what the term adds to the stronger terms, the
+size of a pure term of its kind whose root mean square is ``sqrt(share) * std(residual)``.
 """
 
 from __future__ import annotations
@@ -351,10 +358,15 @@ def describe_residual(signals: MeasuredSignals, residual, shaft_ratio=None,
         groups: dict[str, list[int]] = {}
         for i in np.flatnonzero(coef):
             groups.setdefault(columns[i].group, []).append(int(i))
-        shares = _greedy_shares(matrix, target, groups)
+        shares, directions = _greedy_shares(matrix, target, groups)
         for group, idx in groups.items():
             first = columns[idx[0]]
             amplitude, direction = _amplitude(first.kind, idx, raw, matrix, stds, duration)
+            spread = _root_mean_square_per_size(first.kind, stds[idx[0]], duration)
+            if amplitude * spread > np.sqrt(variance):
+                # larger alone than the whole residual: the size of what it adds instead
+                amplitude = float(np.sqrt(shares[group] * variance) / spread)
+                direction = directions[group]
             terms.append(SignatureTerm(
                 name=group, joint=signals.joint_names[jj], kind=first.kind, source=first.source,
                 amplitude=amplitude, direction=direction, share=shares[group],
@@ -477,8 +489,11 @@ def residual_structure(signals: MeasuredSignals, residual, folds: int = 8, shaft
     return StructureCheck(explained=explained, rms_before=before, rms_after=after, folds=int(folds))
 
 
-def _greedy_shares(matrix: np.ndarray, target: np.ndarray, groups: dict[str, list[int]]) -> dict[str, float]:
-    """Each group's increment of explained variance when groups enter by greedy forward selection."""
+def _greedy_shares(matrix: np.ndarray, target: np.ndarray,
+                   groups: dict[str, list[int]]) -> tuple[dict[str, float], dict[str, int]]:
+    """Each group's increment of explained variance when groups enter by greedy forward selection,
+    and the direction of the increment: the sign of a one-column group's column without the part
+    the groups before it explain, against the target; +1 for groups of several columns."""
     total = float(target @ target)
 
     def explained(idx: list[int]) -> float:
@@ -489,15 +504,35 @@ def _greedy_shares(matrix: np.ndarray, target: np.ndarray, groups: dict[str, lis
         left = target - x @ coef
         return 1.0 - float(left @ left) / total
 
-    shares, chosen, level = {}, [], 0.0
+    shares, directions, chosen, level = {}, {}, [], 0.0
     remaining = dict(groups)
     while remaining:
         trial = {g: explained(chosen + idx) for g, idx in remaining.items()}
         best = max(trial, key=trial.get)
         shares[best] = max(0.0, trial[best] - level)
+        directions[best] = 1
+        if len(remaining[best]) == 1:
+            column = matrix[:, remaining[best][0]]
+            if chosen:
+                before = matrix[:, chosen]
+                column = column - before @ np.linalg.lstsq(before, column, rcond=None)[0]
+            directions[best] = 1 if float(column @ target) >= 0 else -1
         level = max(level, trial[best])
         chosen += remaining.pop(best)
-    return shares
+    return shares, directions
+
+
+def _root_mean_square_per_size(kind: str, column_std: float, duration: float) -> float:
+    """The root mean square of a pure term of ``kind`` per unit of its amplitude (module notes):
+    1/sqrt 2 for a sinusoid, the sign's (or time's) standard deviation per unit of step height (or
+    of change over the ``duration``), 1 for the terms sized by their root mean square."""
+    if kind in ("joint harmonic", "motor harmonic"):
+        return float(np.sqrt(0.5))
+    if kind == "time":
+        return float(column_std / duration) if duration > 0 else 1.0
+    if kind == "sign of velocity":
+        return float(column_std)
+    return 1.0
 
 
 def _amplitude(kind, idx, raw, matrix, stds, duration) -> tuple[float, int]:
