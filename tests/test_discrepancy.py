@@ -180,6 +180,10 @@ def test_nothing_hidden_names_nothing(cli_runs):
     starting = report["starting_parameters"]
     assert list(starting["identified"]) == list(STARTING_STRUCTURE) and starting["final"] == starting["identified"]
     assert starting["units"]["cable_stretch"]["stiffness"] == ["N m/rad", "N m/rad", "N/m"]
+    # with the identification's standard errors, none for the damping it holds at its nominal value
+    errors = starting["identified_standard_error"]
+    assert errors["cable_stretch"]["damping"] == [None, None, None]
+    assert all(e is not None and e > 0 for e in errors["cable_stretch"]["stiffness"] + errors["coupling"]["delta"])
     assert set(report["true_starting_parameters"]) == set(STARTING_STRUCTURE)
     assert "## Parameters of the starting structure" in (cli_runs("none") / "report.md").read_text()
     assert max(report["residual_structure"]) < WorkflowSettings().structure_share

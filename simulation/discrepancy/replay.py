@@ -321,7 +321,9 @@ class RavenModel:
     extra offsets of the samples recorded after that homing, under the effect name
     ``homing_offset_name`` (``homing_offset`` or ``registration_offset``: in a log both are a
     constant per homing). ``payload_kg`` is a payload at the tool tip that the log does not
-    declare (kg), added to the one it does.
+    declare (kg), added to the one it does. ``standard_errors`` maps the names of the parameters an
+    identification fitted to ``params`` (e.g. ``"cable_stretch.stiffness[shoulder]"``) to their
+    standard errors (SI); a model whose effects or loads change no longer has them (None).
     """
 
     params: RavenParameters
@@ -329,6 +331,7 @@ class RavenModel:
     homing_offsets: dict | None = None
     homing_offset_name: str = "homing_offset"
     payload_kg: float = 0.0
+    standard_errors: dict | None = None
 
     @property
     def enabled_effects(self) -> tuple[str, ...]:
@@ -339,7 +342,7 @@ class RavenModel:
 
     def with_effect(self, effect) -> "RavenModel":
         """The model with ``effect`` (an :class:`~simulation.model.effects.Effect`) added or replaced."""
-        return replace(self, params=self.params.with_effect(effect))
+        return replace(self, params=self.params.with_effect(effect), standard_errors=None)
 
     def with_offsets(self, offsets) -> "RavenModel":
         return replace(self, offsets=np.asarray(offsets, dtype=float))
@@ -349,11 +352,12 @@ class RavenModel:
 
     def with_payload(self, payload_kg: float) -> "RavenModel":
         """The model with an undeclared payload of ``payload_kg`` at the tool tip."""
-        return replace(self, payload_kg=float(payload_kg))
+        return replace(self, payload_kg=float(payload_kg), standard_errors=None)
 
     def without_extras(self, names) -> "RavenModel":
         """The model without the effects ``names`` (simulator effects, per-homing offsets, payload)."""
-        model = replace(self, params=self.params.without(*[n for n in names if n in self.params.enabled_effects]))
+        model = replace(self, params=self.params.without(*[n for n in names if n in self.params.enabled_effects]),
+                        standard_errors=None)
         if self.homing_offset_name in names:
             model = replace(model, homing_offsets=None)
         if "payload" in names:

@@ -128,14 +128,28 @@ def structure_document(result: DiscrepancyResult) -> dict | None:
     if not isinstance(result.model_before, RavenModel):
         return None
     start = structure_values(result.model_before.params)
-    return {"identified": start, "final": structure_values(result.model_after.params),
+    errors = result.model_before.standard_errors or {}
+    labels = {field: value_labels(3, result.joint_names, field) for fields in start.values() for field in fields}
+
+    def error(effect, field, i):
+        # the identification's names: the joint, or the coupling term
+        label = labels[field][i].removeprefix("coupling term ")
+        value = errors.get(f"{effect}.{field}[{label}]")
+        return None if value is None else float(value)
+
+    return {"identified": start,
+            "identified_standard_error": {effect: {field: [error(effect, field, i) for i in range(len(values))]
+                                                   for field, values in fields.items()}
+                                          for effect, fields in start.items()},
+            "final": structure_values(result.model_after.params),
             "units": {name: {field: list(STRUCTURE_FIELDS[name][field]) for field in fields}
                       for name, fields in start.items()}}
 
 
 def structure_rows(document: dict, joint_names, truth: dict | None = None) -> list[list]:
-    """Rows (effect, parameter, what, identified, final[, true], unit) in report units of
-    :func:`structure_document`'s ``document`` (``truth``: a generator's values, like it)."""
+    """Rows (effect, parameter, what, identified, its standard error, final[, true], unit) in report
+    units of :func:`structure_document`'s ``document`` (``truth``: a generator's values, like it;
+    "-" for a standard error the identification did not give: a parameter it holds fixed)."""
     from simulation.identification.layout import DEFAULT_FIXED
 
     rows = []
@@ -147,7 +161,9 @@ def structure_rows(document: dict, joint_names, truth: dict | None = None) -> li
             for i, label in enumerate(value_labels(len(start), joint_names, field)):
                 shown, factor = REPORT_UNITS.get(document["units"][effect][field][i],
                                                  (document["units"][effect][field][i], 1.0))
-                row = [effect, shown_field, label, start[i] * factor, final[i] * factor]
+                se = document.get("identified_standard_error", {}).get(effect, {}).get(field, [None] * len(start))[i]
+                row = [effect, shown_field, label, start[i] * factor, "-" if se is None else se * factor,
+                       final[i] * factor]
                 if truth is not None:
                     row.append("-" if true is None else true[i] * factor)
                 rows.append(row + [shown])
@@ -319,9 +335,11 @@ def _structure_section(result: DiscrepancyResult) -> list[str]:
     return ["## Parameters of the starting structure", "",
             "Identified on the fit part at the start (step 0), and in the final model: re-identified with the "
             "named effects' shares removed, where a backfit ran (a parameter that moves between the two had taken "
-            "part of a missing effect). The cable damping is held at its round nominal value (its fit is biased "
-            "low by the encoders' noise on the stretch rate), not fitted.", "",
-            markdown_table(["effect", "parameter", "joint", "identified", "final", "unit"],
+            "part of a missing effect). The standard error is the identification's (Newey-West, the residuals "
+            "being correlated in time) at step 0: it measures how well the data pin a parameter of the starting "
+            "structure down, not how far a missing effect bends it. The cable damping is held at its round "
+            "nominal value (its fit is biased low by the encoders' noise on the stretch rate), not fitted.", "",
+            markdown_table(["effect", "parameter", "joint", "identified", "standard error", "final", "unit"],
                            structure_rows(document, result.joint_names), digits=4), ""]
 
 
@@ -564,7 +582,7 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         *([] if starting is None else [
             "The starting structure's parameters beside the generator's (identified at the start, and in the "
             "final model):", "",
-            markdown_table(["effect", "parameter", "joint", "identified", "final", "true", "unit"],
+            markdown_table(["effect", "parameter", "joint", "identified", "standard error", "final", "true", "unit"],
                            structure_rows(starting, result.joint_names, starting_truth), digits=4), ""]),
     ]
     _insert_before_figures(out, section)

@@ -202,7 +202,8 @@ def identified_model(dataset, mask: np.ndarray, structure=STARTING_STRUCTURE,
         # workflow's refit and validation decide
         warnings.simplefilter("ignore")
         result = identify(samples, effects=tuple(structure), base=start)
-    return RavenModel(result.parameters, np.asarray(result.offsets, dtype=float))
+    return RavenModel(result.parameters, np.asarray(result.offsets, dtype=float),
+                      standard_errors={e.name: float(e.standard_error) for e in result.estimates})
 
 
 def _with_corrections(dataset, torques, payload_kg: float = 0.0):
