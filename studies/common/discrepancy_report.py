@@ -482,6 +482,10 @@ def structure_shares(result: DiscrepancyResult) -> list[float] | None:
 
 
 
+TRUE_PARAMETER_COLUMNS = ["effect", "parameter", "joint", "fitted", "true", "unit", "search range", "at bound"]
+"""Columns of the tables that show fitted parameters beside the generator's (:func:`parameter_rows`)."""
+
+
 def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,
                             result: DiscrepancyResult, size_factor: float = 1.0, log_rate: float = LOG_RATE) -> dict:
     """After the blind analysis: add the hidden effect, the true parameters, the oracle (with the
@@ -569,15 +573,11 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "",
         "Named effects, fitted beside true values:",
         "",
-        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit", "search range", "at bound"],
-                       fitted_rows, digits=4)
-        if fitted_rows else "(none named)",
+        markdown_table(TRUE_PARAMETER_COLUMNS, fitted_rows, digits=4) if fitted_rows else "(none named)",
         "",
         "The oracle's fitted parameters beside the true values:",
         "",
-        markdown_table(["effect", "parameter", "joint", "fitted", "true", "unit", "search range", "at bound"],
-                       oracle_rows, digits=4)
-        if oracle_rows else "(nothing hidden)",
+        markdown_table(TRUE_PARAMETER_COLUMNS, oracle_rows, digits=4) if oracle_rows else "(nothing hidden)",
         "",
         *([] if starting is None else [
             "The starting structure's parameters beside the generator's (identified at the start, and in the "
