@@ -297,9 +297,9 @@ def values_at_bounds(values, lower, upper) -> list[str]:
 def candidate_bounds(candidate: Candidate) -> dict[str, tuple[list[float], list[float]]]:
     """The search range of each of ``candidate``'s parameter blocks, one (lower, upper) pair of lists
     per block, a value per parameter (SI)."""
-    return {b.name: (np.broadcast_to(np.asarray(b.lower, dtype=float), (b.size,)).tolist(),
-                     np.broadcast_to(np.asarray(b.upper, dtype=float), (b.size,)).tolist())
-            for b in candidate.blocks}
+    lower, upper, _, _ = candidate.bounds()
+    lower, upper = candidate.unpack(lower), candidate.unpack(upper)
+    return {b.name: (lower[b.name].tolist(), upper[b.name].tolist()) for b in candidate.blocks}
 
 
 SCREEN_FACTORS = (0.1, 0.3, 1.0, 3.0, 10.0)

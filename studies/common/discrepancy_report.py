@@ -128,12 +128,13 @@ def structure_document(result: DiscrepancyResult) -> dict | None:
     if not isinstance(result.model_before, RavenModel):
         return None
     start = structure_values(result.model_before.params)
+    from simulation.identification.layout import COUPLING_NAMES
+
     errors = result.model_before.standard_errors or {}
-    labels = {field: value_labels(3, result.joint_names, field) for fields in start.values() for field in fields}
 
     def error(effect, field, i):
-        # the identification's names: the joint, or the coupling term
-        label = labels[field][i].removeprefix("coupling term ")
+        # by the identification's names: the joint, or the coupling term
+        label = (COUPLING_NAMES if effect == "coupling" else result.joint_names)[i]
         value = errors.get(f"{effect}.{field}[{label}]")
         return None if value is None else float(value)
 
