@@ -47,6 +47,7 @@ from pathlib import Path
 
 from simulation.discrepancy import WorkflowSettings
 from simulation.discrepancy.signals import pooled_rmse
+from simulation.identification import NotIdentifiableError
 from simulation.engine.robot import LOG_RATE, TRUTH_RATE
 from studies.common.data_sources import is_dvrk_folder
 from studies.common.discrepancy_report import (
@@ -63,12 +64,15 @@ from studies.common.discrepancy_runs import (
     HIDDEN_CHOICES,
     STARTING_STRUCTURE,
     analyse_measured,
+    analysed_rows,
     analysis_settings,
+    check_analysable,
     check_hidden,
     drift_record_note,
     generate_measured,
     learned_calibrators_on_dvrk,
     log_rate_options,
+    read_flagged,
     read_measured,
     record_length,
     run_ablation,
@@ -80,8 +84,10 @@ from studies.common.discrepancy_runs import (
 from studies.common.discrepancy_sweep import SWEEP_EFFECTS, read_sweeps, summarise_sweep, sweep
 from studies.common.runner import (
     StudyRun,
+    UsageError,
     existing_path,
     non_negative_int,
+    one_line,
     positive_float,
     positive_int,
     say,
@@ -135,14 +141,16 @@ def joint_numbers(text: str) -> tuple[int, ...]:
 
 
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
-            progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None):
+            progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None,
+            dropped_rows: int = 0):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     Returns the result, signals and split. ``shown_path`` is the input's name in the report (where
     the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
     records its own); ``max_rate`` (Hz) thins a faster log first; ``backfit_rounds`` caps the
-    backfit's rounds instead of the workflow's default. The analysis reads ``path`` and
-    nothing else (:func:`~studies.common.discrepancy_runs.analyse_measured`).
+    backfit's rounds instead of the workflow's default; ``dropped_rows``, the rows of the input
+    left out for holding impossible values, is recorded in the report's source. The analysis
+    reads ``path`` and nothing else (:func:`~studies.common.discrepancy_runs.analyse_measured`).
     """
     import time
 
@@ -159,6 +167,9 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     if max_rate is not None:
         source["max_rate_hz"] = float(max_rate)
         source["description"] += f", thinned to at most {max_rate:g} Hz"
+    if dropped_rows:
+        source["rows_dropped_invalid"] = int(dropped_rows)
+        source["description"] += f", {dropped_rows} row{'s' if dropped_rows != 1 else ''} with impossible values left out"
     write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s)
     return result, signals, split
 
@@ -255,10 +266,22 @@ def main(argv=None) -> int:
             say("training the learned calibrators on the same split...")
             add_learned_comparison(study.folder, result, learned_calibrators_on_dvrk(root, joints))
         else:
+            # an unreadable input, or one the workflow cannot analyse, is a one-line usage error before any work
             with study.reading(args.measured):
-                read_measured(args.measured, args.arm)  # an unreadable input is a one-line usage error, before any work
-            result, signals, split = analyse(args.measured, study.folder, arm=args.arm, progress=progress,
-                                             max_rate=args.max_rate, backfit_rounds=args.backfit_rounds)
+                flagged = read_flagged(args.measured, args.arm)
+            dropped = flagged.n_invalid
+            try:
+                check_analysable(analysed_rows(flagged, args.max_rate))
+            except ValueError as error:
+                left_out = f" ({dropped} of {len(flagged)} rows left out for impossible values)" if dropped else ""
+                raise UsageError(f"{args.measured} cannot be analysed{left_out}: {one_line(error)}") from error
+            del flagged
+            try:
+                result, signals, split = analyse(args.measured, study.folder, arm=args.arm, progress=progress,
+                                                 max_rate=args.max_rate, backfit_rounds=args.backfit_rounds,
+                                                 dropped_rows=dropped)
+            except NotIdentifiableError as error:
+                raise UsageError(f"{args.measured} cannot be analysed: {one_line(error)}") from error
         study.publish()
     units = report_unit_names(result.units)
     note = short_record_note(signals)

@@ -123,6 +123,10 @@ def test_cli_runs_on_a_dataset_file_split_in_time(data, tmp_path):
     assert {"results.json", "report.md", "error_over_time_test.png", "rmse_joints_test.png",
             "rmse_tool_tip_test.png"} <= written
     assert json.loads((out / "results.json").read_text())["test"]["joint_rmse"]["raw"] is not None
+    # a finding on recorded data says so, and carries no note on what the simulator was fitted to
+    report = (out / "report.md").read_text()
+    assert "**Finding (test on recorded data): " in report and "Measured: on the held-out test data, per joint" in report
+    assert "Simulated:" not in report and "fit targets of the simulator" not in report
 
 
 def test_recorded_data_errors_are_clear(tmp_path):

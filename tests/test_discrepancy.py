@@ -1054,10 +1054,86 @@ def test_the_backfit_cap_asked_on_the_command_line_reaches_the_blind_analysis(mo
         asked.append(options)
         raise Stop
 
-    monkeypatch.setattr(command, "read_measured", lambda path, arm="left": None)
+    monkeypatch.setattr(command, "read_flagged", lambda path, arm="left": type("Flagged", (), {"n_invalid": 0})())
+    monkeypatch.setattr(command, "analysed_rows", lambda dataset, max_rate=None: dataset)
+    monkeypatch.setattr(command, "check_analysable", lambda dataset: None)
     monkeypatch.setattr(command, "analyse", stop)
     (tmp_path / "log.parquet").write_bytes(b"")
     for extra, cap in (([], None), (["--backfit-rounds", "12"], 12)):
         with pytest.raises(Stop):
             command.main(["--measured", str(tmp_path / "log.parquet"), "--out", str(tmp_path / "out"), *extra])
         assert asked[-1]["backfit_rounds"] == cap
+
+
+@pytest.fixture(scope="module")
+def five_second_log(tmp_path_factory):
+    """Five seconds of generated RAVEN-II data (nothing hidden) as a dataset file."""
+    from studies.common.discrepancy_runs import generate_measured, write_measured
+
+    dataset, _ = generate_measured((), seed=3, duration=5.0)
+    return write_measured(dataset, tmp_path_factory.mktemp("five_seconds"))
+
+
+def _edited_copy(source, target, edit):
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(source)
+    columns = {name: table.column(name).to_numpy(zero_copy_only=False).copy() for name in table.column_names}
+    edit(columns)
+    pq.write_table(type(table).from_pydict(columns).replace_schema_metadata(table.schema.metadata), target)
+    return target
+
+
+def test_a_record_the_workflow_cannot_analyse_is_a_one_line_error_before_any_work(five_second_log, tmp_path, capsys):
+    from studies.discrepancy import main
+
+    def time_goes_back(columns):
+        columns["time"][40] = columns["time"][10]
+
+    def first_half_too_short(columns):
+        # 40 rows (1.3 s): the first half is shorter than the identification's two derivative windows
+        for name in columns:
+            columns[name] = columns[name][:40]
+
+    for edit, expected in ((time_goes_back, "time must increase strictly; it does not at sample 40"),
+                           (first_half_too_short, "the starting structure is identified on the record's first half")):
+        path = _edited_copy(five_second_log, tmp_path / f"{edit.__name__}.parquet", edit)
+        with pytest.raises(SystemExit) as exit_info:
+            main(["--measured", str(path), "--no-progress", "--out", str(tmp_path / "out")])
+        error = capsys.readouterr().err.strip().splitlines()[-1]
+        assert exit_info.value.code == 2 and error.startswith("python studies/discrepancy.py: error: "), error
+        assert f"{path} cannot be analysed: " in error and expected in error, error
+        assert not (tmp_path / "out").exists()
+
+
+def test_rows_with_impossible_values_are_left_out_and_counted_in_the_report(five_second_log, tmp_path, monkeypatch):
+    import studies.discrepancy as command
+
+    def lose_a_truth_value(columns):
+        columns["truth.elbow"][25] = np.nan
+
+    path = _edited_copy(five_second_log, tmp_path / "nan.parquet", lose_a_truth_value)
+    flagged = command.read_flagged(path)
+    assert flagged.n_invalid == 1 and not flagged.valid_mask()[25]
+    assert len(command.analysed_rows(flagged)) == len(flagged) - 1
+
+    class Stop(Exception):
+        pass
+
+    def stop(path, out, **options):
+        raise Stop(options["dropped_rows"])
+
+    analyse = command.analyse
+    monkeypatch.setattr(command, "analyse", stop)
+    with pytest.raises(Stop) as stopped:
+        command.main(["--measured", str(path), "--no-progress", "--out", str(tmp_path / "out")])
+    assert stopped.value.args == (1,)
+    # and the report's source says so
+    sources = []
+    monkeypatch.setattr(command, "analyse_measured", lambda path, **options: ("result", "signals", "split"))
+    monkeypatch.setattr(command, "write_report", lambda result, signals, split, source, *rest: sources.append(source))
+    analyse(path, tmp_path, dropped_rows=1)
+    analyse(path, tmp_path)
+    assert sources[0]["rows_dropped_invalid"] == 1
+    assert sources[0]["description"] == "RAVEN-II data nan.parquet, 1 row with impossible values left out"
+    assert "rows_dropped_invalid" not in sources[1] and sources[1]["description"] == "RAVEN-II data nan.parquet"

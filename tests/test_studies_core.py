@@ -268,6 +268,9 @@ def test_tables_and_json_are_plain(tmp_path):
     assert json.loads(path.read_text()) == {"v": [1.0, None], "n": 3}
     assert to_jsonable(MethodSettings())["dnn_seeds"] == 5
     assert agreement_line(False, "a", "b").startswith("**Finding (test): DOES NOT AGREE")
+    # on recorded data the evidence is measured, whatever the simulator was tuned to
+    assert agreement_line(True, "a", "b", "built in", measured=True) == \
+        "**Finding (test on recorded data): AGREES with the paper.** Measured: a Paper: b"
     assert "AGREE" not in agreement_line(True, "a", "b", "built in")
     with pytest.raises(ValueError, match="kind must be one of"):
         agreement_line(True, "a", "b", "tuned")

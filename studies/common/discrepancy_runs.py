@@ -254,8 +254,30 @@ def controller_of(dataset):
     return ControllerLaw.nominal(dataset.arm), ControllerSignals.from_dataset(dataset)
 
 
+SPLIT_FRACTIONS = (0.5, 0.25, 0.25)
+"""Shares of a RAVEN-II record, in time order, that the workflow fits on, chooses on and reports on."""
+
+
+def check_analysable(dataset) -> None:
+    """Raise ValueError naming what keeps the workflow from analysing the RAVEN-II ``dataset``:
+    times that do not increase strictly, or a fit part (the record's first half) without a stretch
+    long enough for the identification's derivatives. The analysis would find either only after
+    reading and preparing the whole record; the command line checks first and reports it in one line.
+    """
+    from simulation.identification.samples import prepare_samples
+
+    signals = MeasuredSignals.from_dataset(dataset)
+    split = Split.by_time(signals, SPLIT_FRACTIONS)
+    try:
+        prepare_samples(dataset.select(split.fit), uninformed_start(dataset.arm))
+    except ValueError as error:
+        seconds = float(np.ptp(signals.time[split.fit])) if split.fit.any() else 0.0
+        raise ValueError(f"the starting structure is identified on the record's first half ({seconds:.1f} s "
+                         f"here), and it cannot be: {error}") from error
+
+
 def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: WorkflowSettings = WorkflowSettings(),
-                         fractions=(0.5, 0.25, 0.25), exclude=(), candidates=LIBRARY, progress: bool = False,
+                         fractions=SPLIT_FRACTIONS, exclude=(), candidates=LIBRARY, progress: bool = False,
                          replay_signals=None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
     """The workflow on a RAVEN-II dataset: split in time, identify ``structure`` on the fit part,
     screen the ``candidates`` (effect names); ``progress`` shows the candidate fits on stderr.
@@ -274,17 +296,28 @@ def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: Workfl
                         controller=controller_of(dataset)), signals, split
 
 
-def read_measured(path, arm: str = "left", max_rate: float | None = None):
+def read_flagged(path, arm: str = "left"):
     """The RAVEN-II dataset of a dataset file (``.parquet``, ``.csv``), a ROS bag or a folder of
-    either, without the rows flagged invalid, thinned to at most ``max_rate`` (Hz; see
-    :func:`thinned`). ``arm`` is for bags and CSV files (a Parquet dataset file records its arm)."""
+    either, with the rows that hold impossible values flagged (``valid`` False), not removed.
+    ``arm`` is for bags and CSV files (a Parquet dataset file records its arm)."""
     from simulation.recordings.dataset import CalibrationDataset
     from studies.common.data_sources import recorded_datasets
 
     datasets, _ = recorded_datasets(path, arm)
-    dataset = CalibrationDataset.concat(datasets) if len(datasets) > 1 else datasets[0]
+    return CalibrationDataset.concat(datasets) if len(datasets) > 1 else datasets[0]
+
+
+def analysed_rows(dataset, max_rate: float | None = None):
+    """The rows of a :func:`read_flagged` dataset that the workflow analyses: those not flagged
+    invalid, thinned to at most ``max_rate`` (Hz; see :func:`thinned`)."""
     dataset = dataset.select(dataset.valid_mask()) if dataset.n_invalid else dataset
     return thinned(dataset, max_rate)
+
+
+def read_measured(path, arm: str = "left", max_rate: float | None = None):
+    """The RAVEN-II dataset at ``path`` (see :func:`read_flagged`) without the rows flagged invalid,
+    thinned to at most ``max_rate`` (Hz; see :func:`thinned`)."""
+    return analysed_rows(read_flagged(path, arm), max_rate)
 
 
 def thinning_step(time, max_rate: float | None) -> int:

@@ -118,15 +118,20 @@ FINDING_KINDS = ("test", "built in")
 or ``"built in"`` (the simulator's defaults were tuned so that it comes out)."""
 
 
-def agreement_line(agrees: bool, simulated: str, paper: str, kind: str = "test") -> str:
+def agreement_line(agrees: bool, simulated: str, paper: str, kind: str = "test", measured: bool = False) -> str:
     """The one line each study ends with.
 
     A ``"test"`` is reported as agreement or disagreement with the paper; a ``"built in"`` finding
     (the simulator was tuned to it, see ``simulation/model/effects.py``) only as reproduced or not,
-    because reproducing what the simulator was made to do says nothing about the paper.
+    because reproducing what the simulator was made to do says nothing about the paper. ``measured``
+    marks a finding on recorded data (a test whatever ``kind`` says of the simulator): its evidence
+    is labelled "Measured", not "Simulated".
     """
     if kind not in FINDING_KINDS:
         raise ValueError(f"kind must be one of {FINDING_KINDS}, got {kind!r}")
+    if measured:
+        verdict = "AGREES with the paper" if agrees else "DOES NOT AGREE with the paper"
+        return f"**Finding (test on recorded data): {verdict}.** Measured: {simulated} Paper: {paper}"
     if kind == "test":
         verdict = "AGREES with the paper" if agrees else "DOES NOT AGREE with the paper"
         return f"**Finding (test): {verdict}.** Simulated: {simulated} Paper: {paper}"
