@@ -141,16 +141,15 @@ def joint_numbers(text: str) -> tuple[int, ...]:
 
 
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
-            progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None,
-            dropped_rows: int = 0):
+            progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     Returns the result, signals and split. ``shown_path`` is the input's name in the report (where
     the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
     records its own); ``max_rate`` (Hz) thins a faster log first; ``backfit_rounds`` caps the
-    backfit's rounds instead of the workflow's default; ``dropped_rows``, the rows of the input
-    left out for holding impossible values, is recorded in the report's source. The analysis
-    reads ``path`` and nothing else (:func:`~studies.common.discrepancy_runs.analyse_measured`).
+    backfit's rounds instead of the workflow's default. The analysis reads ``path`` and nothing
+    else (:func:`~studies.common.discrepancy_runs.analyse_measured`); the report's source counts
+    the rows it left out for holding impossible values.
     """
     import time
 
@@ -167,6 +166,7 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     if max_rate is not None:
         source["max_rate_hz"] = float(max_rate)
         source["description"] += f", thinned to at most {max_rate:g} Hz"
+    dropped_rows = read_flagged(path, arm).n_invalid
     if dropped_rows:
         source["rows_dropped_invalid"] = int(dropped_rows)
         source["description"] += f", {dropped_rows} row{'s' if dropped_rows != 1 else ''} with impossible values left out"
@@ -269,17 +269,16 @@ def main(argv=None) -> int:
             # an unreadable input, or one the workflow cannot analyse, is a one-line usage error before any work
             with study.reading(args.measured):
                 flagged = read_flagged(args.measured, args.arm)
-            dropped = flagged.n_invalid
             try:
                 check_analysable(analysed_rows(flagged, args.max_rate))
             except ValueError as error:
+                dropped = flagged.n_invalid
                 left_out = f" ({dropped} of {len(flagged)} rows left out for impossible values)" if dropped else ""
                 raise UsageError(f"{args.measured} cannot be analysed{left_out}: {one_line(error)}") from error
             del flagged
             try:
                 result, signals, split = analyse(args.measured, study.folder, arm=args.arm, progress=progress,
-                                                 max_rate=args.max_rate, backfit_rounds=args.backfit_rounds,
-                                                 dropped_rows=dropped)
+                                                 max_rate=args.max_rate, backfit_rounds=args.backfit_rounds)
             except NotIdentifiableError as error:
                 raise UsageError(f"{args.measured} cannot be analysed: {one_line(error)}") from error
         study.publish()
