@@ -60,8 +60,13 @@ def test_samples_reject_bad_shapes_and_values():
                 time=good.time, recording=good.recording)
     bad = good.X.copy()
     bad[3, 1] = np.nan
-    with pytest.raises(ValueError, match="NaN"):
+    with pytest.raises(ValueError, match=r"X contains NaN or infinity \(first at row 3, column 'r2'\)"):
         Samples(X=bad, feature_names=good.feature_names, raw_columns=(0, 1, 2), targets=good.targets,
+                time=good.time, recording=good.recording)
+    truth = good.targets.copy()
+    truth[5, 2] = np.inf
+    with pytest.raises(ValueError, match=r"targets contains NaN or infinity \(first at row 5, column 'joint 3'\)"):
+        Samples(X=good.X, feature_names=good.feature_names, raw_columns=(0, 1, 2), targets=truth,
                 time=good.time, recording=good.recording)
     with pytest.raises(ValueError, match="raw_columns"):
         Samples(X=good.X, feature_names=good.feature_names, raw_columns=(0, 1, 9), targets=good.targets,
@@ -70,6 +75,17 @@ def test_samples_reject_bad_shapes_and_values():
     with pytest.raises(ValueError, match="consecutive"):
         Samples(X=good.X, feature_names=good.feature_names, raw_columns=(0, 1, 2), targets=good.targets,
                 time=good.time, recording=interleaved)
+    # time runs per recording: it may start again in the next one, never go back (or stall) within one
+    two = np.repeat([0, 1], 10)
+    restarted = np.concatenate([good.time[:10], good.time[:10]])
+    assert len(Samples(X=good.X, feature_names=good.feature_names, raw_columns=(0, 1, 2), targets=good.targets,
+                       time=restarted, recording=two)) == 20
+    for row, earlier in ((7, 3), (7, 6)):
+        back = good.time.copy()
+        back[row] = good.time[earlier]
+        with pytest.raises(ValueError, match=f"time must increase strictly within a recording; it does not at row {row} "):
+            Samples(X=good.X, feature_names=good.feature_names, raw_columns=(0, 1, 2), targets=good.targets,
+                    time=back, recording=good.recording)
 
 
 def test_samples_concat_renumbers_recordings_and_select_marks_thinning():

@@ -68,8 +68,8 @@ class Samples:
     Raises
     ------
     ValueError
-        Shapes that disagree, values that are not finite, raw columns out of range, or
-        recording ids that are not in consecutive blocks.
+        Shapes that disagree, values that are not finite, raw columns out of range, recording
+        ids that are not in consecutive blocks, or times that do not increase within a recording.
     """
 
     X: np.ndarray
@@ -102,12 +102,22 @@ class Samples:
         recording = _frozen(self.recording, np.int64)
         if time.shape != (n,) or recording.shape != (n,):
             raise ValueError(f"time and recording must have shape ({n},), got {time.shape} and {recording.shape}")
-        for name, values in (("X", X), ("targets", targets), ("time", time)):
-            if not np.all(np.isfinite(values)):
-                raise ValueError(f"{name} contains NaN or infinity")
+        target_names = ("joint 1", "joint 2", "joint 3")
+        for name, values, columns in (("X", X, names), ("targets", targets, target_names), ("time", time, None)):
+            finite = np.isfinite(values)
+            if not np.all(finite):
+                row, *column = np.argwhere(~finite)[0]
+                where = f"row {row}" + (f", column {columns[column[0]]!r}" if column and columns else "")
+                raise ValueError(f"{name} contains NaN or infinity (first at {where})")
         starts = recording[np.r_[True, recording[1:] != recording[:-1]]]
         if np.unique(starts).size != starts.size:
             raise ValueError("rows of one recording must be consecutive (recordings are never interleaved)")
+        # the temporal models (windows, the UKF) read a recording's rows as one time series
+        backwards = np.flatnonzero((recording[1:] == recording[:-1]) & (np.diff(time) <= 0))
+        if backwards.size:
+            row = int(backwards[0]) + 1
+            raise ValueError(f"time must increase strictly within a recording; it does not at row {row} "
+                             f"(recording {recording[row]}, t = {time[row]:.6f} s after {time[row - 1]:.6f} s)")
         tool = None
         if self.tool_joints is not None:
             tool = _frozen(self.tool_joints)
