@@ -191,7 +191,7 @@ def main(argv=None) -> int:
     parser.add_argument("--duration", type=record_length, default=DEFAULT_RECORD_S,
                         help="seconds of generated random motion (default: twenty minutes, the paper's random tests "
                              "and the shortest record on which drift at its published size was named; 240 for a "
-                             "quicker look that cannot show drift; at most six hours)")
+                             "quicker look that cannot show drift; at least 5 s, at most six hours)")
     parser.add_argument("--size-factor", type=positive_float, default=1.0,
                         help="generate the hidden effect at this multiple of its default size (default 1: the "
                              "size its source gives)")

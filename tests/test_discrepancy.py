@@ -286,9 +286,9 @@ def test_hidden_effects_are_one_name_or_a_sequence_of_names():
 
 
 @pytest.mark.parametrize("duration, message", [
-    (6 * 3600.0 + 1.0, "at most 21600 s"), (np.inf, "at most 21600 s"), (-1.0, "above 0 s"),
+    (6 * 3600.0 + 1.0, "at most 21600 s"), (np.inf, "at most 21600 s"), (-1.0, "at least 5 s"), (4.9, "at least 5 s"),
     ("a minute", "must be a number of seconds")])
-def test_a_record_length_above_six_hours_or_not_a_length_is_refused_before_generating(duration, message):
+def test_a_record_length_under_five_seconds_over_six_hours_or_not_a_length_is_refused_before_generating(duration, message):
     from studies.common.discrepancy_runs import generate_measured
 
     # refused at once: a day of motion at the servo rate would fill the memory before failing

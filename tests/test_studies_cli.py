@@ -159,7 +159,7 @@ IN_PROCESS_MISTAKES = [
     ("discrepancy_fit_at_truth", ["--hidden-effect", "payload"], "invalid choice: 'payload'"),
     ("discrepancy_fit_at_truth", ["--hidden-effect", "motor_friction"], "invalid choice: 'motor_friction'"),
     ("discrepancy_fit_at_truth", ["--hidden-effect", "backlash", "--duration", "0"],
-     "argument --duration: the record length must be above 0 s"),
+     "argument --duration: the record length must be at least 5 s"),
     ("discrepancy_backfit", ["--hidden-effect", "magic"], "invalid choice: 'magic'"),
     ("discrepancy_backfit", ["--hidden-effect", "backlash", "--rounds", "6,x"], "--rounds"),
     ("discrepancy_backfit", ["--hidden-effect", "backlash", "--rounds", "6,-1"], "--rounds"),
