@@ -136,7 +136,8 @@ class MeasuredSignals:
             raise ValueError(f"the discrepancy workflow needs at least 20 samples, got {n}")
         if np.any(np.diff(self.time) <= 0):
             bad = int(np.argmax(np.diff(self.time) <= 0)) + 1
-            raise ValueError(f"time must increase strictly; it does not at sample {bad}")
+            raise ValueError(f"time must increase strictly; it does not at sample {bad} "
+                             f"(t = {self.time[bad]:.6f} s after {self.time[bad - 1]:.6f} s)")
         for name in ("truth", "reported", "drive"):
             value = getattr(self, name)
             if value.shape != (n, len(self.joint_names)):
