@@ -227,7 +227,7 @@ def torque_summary(data: ComparisonData) -> dict | None:
         if any(samples is other for other in seen):
             continue
         seen.append(samples)
-        summary[f"{test} test"] = one(samples)
+        summary[report_name(test)] = one(samples)
     return summary
 
 
@@ -257,6 +257,11 @@ def _robot_name(comparison: Comparison) -> str:
         ("dVRK" if "dVRK" in source else "recorded RAVEN-II")
 
 
+def report_name(test: str) -> str:
+    """A test's name in reports: "unloaded test", or "held-out test" for recorded data's one test."""
+    return "held-out test" if test == "test" else f"{test} test"
+
+
 def _row_label(method) -> str:
     return f"{method.label}; {method.reference}"
 
@@ -275,7 +280,7 @@ def joint_table(comparison: Comparison, test: str) -> tuple[list[str], list[list
         if run.ok:
             rows.append([_row_label(m), robot, m.model,
                          f"{reporting.SIMULATED if robot == 'virtual RAVEN-II' else 'measured here'}, "
-                         f"{test} test{_seed_note(run)}", *run.mean(test).joint])
+                         f"{report_name(test)}{_seed_note(run)}", *run.mean(test).joint])
         else:
             rows.append([_row_label(m), robot, m.model, run.note, None, None, None])
     if robot == "virtual RAVEN-II":
@@ -299,7 +304,7 @@ def cartesian_table(comparison: Comparison, test: str) -> tuple[list[str], list[
         if cartesian is not None:
             rows.append([_row_label(m), robot, m.model,
                          f"{reporting.SIMULATED if robot == 'virtual RAVEN-II' else 'measured here'}, "
-                         f"{test} test{_seed_note(run)}", *cartesian])
+                         f"{report_name(test)}{_seed_note(run)}", *cartesian])
         else:
             note = run.note if not run.ok else "no RAVEN-II tool joints in these data"
             rows.append([_row_label(m), robot, m.model, note, None, None, None, None])
@@ -372,7 +377,7 @@ def finding(document: dict) -> str:
     detail = "; ".join(f"{name}: {', '.join('yes' if v else 'no' for v in values)}" for name, values in tested.items())
     agrees = bool(tested) and all(all(values) for values in tested.values())
     simulated = str(document["source"]).startswith("virtual RAVEN-II")
-    where = f"on the {first} test" if first != "test" else "on the held-out test data"
+    where = f"on the {report_name(first)}"
     built_in = (" (fixed offset below raw is built in: both levels are fit targets of the simulator)"
                 if simulated else "")
     return reporting.agreement_line(
@@ -398,7 +403,7 @@ def write_outputs(comparison: Comparison, document: dict, out: Path) -> list[Pat
         if estimates:
             figures.append(plots.error_over_time(samples.time, samples.targets, estimates,
                                                  out / f"error_over_time_{test}.png",
-                                                 f"Joint error over time, {test} test"))
+                                                 f"Joint error over time, {report_name(test)}"))
         joint = {run.method.label: list(run.mean(test).joint) for run in runs.values() if run.ok}
         published = {}
         if test == "unloaded" and _robot_name(comparison) == "virtual RAVEN-II":
@@ -409,12 +414,12 @@ def write_outputs(comparison: Comparison, document: dict, out: Path) -> list[Pat
                 published[comparison.runs["ukf"].method.label] = paper.TABLE_III[2]["joint"]
         if joint:
             figures.append(plots.method_bars(joint, JOINT_HEADERS, out / f"rmse_joints_{test}.png",
-                                           f"RMSE per joint, {test} test", published=published))
+                                           f"RMSE per joint, {report_name(test)}", published=published))
         cartesian = {run.method.label: list(run.mean(test).cartesian) for run in runs.values()
                      if run.ok and run.mean(test).cartesian is not None}
         if cartesian:
             figures.append(plots.method_bars(cartesian, CARTESIAN_HEADERS, out / f"rmse_tool_tip_{test}.png",
-                                           f"Tool-tip RMSE (tool joints exact), {test} test"))
+                                           f"Tool-tip RMSE (tool joints exact), {report_name(test)}"))
     json_path = reporting.write_json(out / "results.json", document)
     report_path = reporting.write_text(out / "report.md", report_markdown(comparison, document, figures, out))
     return [json_path, report_path, *figures]
@@ -426,9 +431,9 @@ def report_markdown(comparison: Comparison, document: dict, figures: list[Path],
              f"Data: {document['source']}.", *[f"{line}" for line in document["notes"]], "",
              finding(document), ""]
     for test in comparison.tests:
-        parts += [f"## {test} test: joint space (Table III)", "",
+        parts += [f"## {report_name(test)}: joint space (Table III)", "",
                   reporting.markdown_table(*joint_table(comparison, test)), "",
-                  f"## {test} test: tool tip, last joints exact (Table IV)", "",
+                  f"## {report_name(test)}: tool tip, last joints exact (Table IV)", "",
                   reporting.markdown_table(*cartesian_table(comparison, test)), ""]
     torque = document.get("logged_torque")
     if torque:
@@ -444,7 +449,7 @@ def report_markdown(comparison: Comparison, document: dict, figures: list[Path],
                   "Per test: readings rejected by the gate / samples coasted through / re-initialisations "
                   "after a divergence, summed over the test's recordings.", "",
                   reporting.markdown_table(*events), ""]
-    trainings = [("", comparison.runs)] + [(f" (trained for the {test} test)", runs)
+    trainings = [("", comparison.runs)] + [(f" (trained for the {report_name(test)})", runs)
                                            for test, runs in comparison.retrained.items()]
     not_run = [f"- {run.method.label}{where}: {run.note}" for where, runs in trainings for run in runs.values()
                if not run.ok]
@@ -480,7 +485,7 @@ def events_table(document: dict) -> tuple[list[str], list[list]] | None:
         return None
     rows = [[document["methods"][key]["label"], *[_events_cell(document[test].get("ukf_events", {}).get(key))
                                                   for test in tests]] for key in keys]
-    return ["Method", *[f"{test} test" for test in tests]], rows
+    return ["Method", *[report_name(test) for test in tests]], rows
 
 
 def _events_cell(events: dict | None) -> str:

@@ -125,8 +125,9 @@ def test_cli_runs_on_a_dataset_file_split_in_time(data, tmp_path):
     assert json.loads((out / "results.json").read_text())["test"]["joint_rmse"]["raw"] is not None
     # a finding on recorded data says so, and carries no note on what the simulator was fitted to
     report = (out / "report.md").read_text()
-    assert "**Finding (test on recorded data): " in report and "Measured: on the held-out test data, per joint" in report
+    assert "**Finding (test on recorded data): " in report and "Measured: on the held-out test, per joint" in report
     assert "Simulated:" not in report and "fit targets of the simulator" not in report
+    assert "## held-out test: joint space (Table III)" in report and "test test" not in report
 
 
 def test_recorded_data_errors_are_clear(tmp_path):
