@@ -252,7 +252,11 @@ def published_rows() -> dict:
 
 
 def _robot_name(comparison: Comparison) -> str:
-    source = comparison.data.source
+    return _robot_of(comparison.data.source)
+
+
+def _robot_of(source: str) -> str:
+    """The robot a data source's description names: "virtual RAVEN-II", "dVRK" or "recorded RAVEN-II"."""
     return "virtual RAVEN-II" if source.startswith("virtual RAVEN-II") else \
         ("dVRK" if "dVRK" in source else "recorded RAVEN-II")
 
@@ -376,12 +380,11 @@ def finding(document: dict) -> str:
     tested = {name: values for name, values in checks.items() if name not in ("all", "fixed_offset<raw")}
     detail = "; ".join(f"{name}: {', '.join('yes' if v else 'no' for v in values)}" for name, values in tested.items())
     agrees = bool(tested) and all(all(values) for values in tested.values())
-    simulated = str(document["source"]).startswith("virtual RAVEN-II")
-    where = f"on the {report_name(first)}"
+    simulated = _robot_of(str(document["source"])) == "virtual RAVEN-II"
     built_in = (" (fixed offset below raw is built in: both levels are fit targets of the simulator)"
                 if simulated else "")
     return reporting.agreement_line(
-        agrees, f"{where}, per joint 1/2/3 - {detail or 'not enough methods ran'}{built_in}.",
+        agrees, f"on the {report_name(first)}, per joint 1/2/3 - {detail or 'not enough methods ran'}{built_in}.",
         "linear regression and the DNN beat fixed offset in all three joints (Table I).",
         paper.FINDING_KIND["compare_sota"], measured=not simulated)
 

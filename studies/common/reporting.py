@@ -129,12 +129,10 @@ def agreement_line(agrees: bool, simulated: str, paper: str, kind: str = "test",
     """
     if kind not in FINDING_KINDS:
         raise ValueError(f"kind must be one of {FINDING_KINDS}, got {kind!r}")
-    if measured:
+    if measured or kind == "test":
         verdict = "AGREES with the paper" if agrees else "DOES NOT AGREE with the paper"
-        return f"**Finding (test on recorded data): {verdict}.** Measured: {simulated} Paper: {paper}"
-    if kind == "test":
-        verdict = "AGREES with the paper" if agrees else "DOES NOT AGREE with the paper"
-        return f"**Finding (test): {verdict}.** Simulated: {simulated} Paper: {paper}"
+        label, evidence = ("test on recorded data", "Measured") if measured else ("test", "Simulated")
+        return f"**Finding ({label}): {verdict}.** {evidence}: {simulated} Paper: {paper}"
     verdict = "reproduced" if agrees else "NOT reproduced"
     return (f"**Finding (built in: the simulator was tuned to it, so this is no agreement): {verdict}.** "
             f"Simulated: {simulated} Paper: {paper}")
