@@ -8,6 +8,10 @@ compiled by the system C compiler and as many times in casadi's virtual machine
 (``RAVEN_CALIBRATION_COMPILE=0``), and prints the median seconds of each, the speed-up
 (``speedup <ratio>``) and the largest difference between the two fits' estimates, in standard
 errors. The first compiled fit includes the compilation; later fits of the same structure reuse it.
+It then times the compiled fits again, alternating between maps over the samples run by the virtual
+machine (calling the compiled per-sample code) and maps compiled whole (what a structure refitted
+to one record gets from its ``COMPILE_MAPS_AT``-th identification on), and prints both medians,
+their ratio (``maps speedup <ratio>``) and whether the estimates are equal to the last digit.
 It also times the Newey-West score covariance of the fit's Jacobian (one second of lags) as the
 identification computes it, from window sums, against the lag-by-lag sum it replaces, and prints
 their largest relative difference.
@@ -79,6 +83,28 @@ def timed_fits(recording, repeats: int) -> tuple[list[float], object]:
     return seconds, result
 
 
+def map_timing(recording, repeats: int) -> None:
+    """Compiled fits alternating between the virtual machine's maps and maps compiled whole."""
+    from simulation.identification import fit
+
+    at = fit.COMPILE_MAPS_AT
+    seconds, results = {False: [], True: []}, {}
+    try:
+        for whole in (False, True) * (repeats + 1):
+            fit.COMPILE_MAPS_AT = 1 if whole else 2 ** 62
+            timing, results[whole] = timed_fits(recording, 1)
+            seconds[whole] += timing
+    finally:
+        fit.COMPILE_MAPS_AT = at
+    # the first of each includes building (and for whole maps compiling) them
+    machine, whole = (np.median(seconds[k][1:]) for k in (False, True))
+    same = all(a.value == b.value and a.standard_error == b.standard_error
+               for a, b in zip(results[False].estimates, results[True].estimates))
+    print(f"maps over the samples: virtual machine median {machine:.3f} s, compiled whole median {whole:.3f} s "
+          f"(first {seconds[True][0]:.2f} s, with the compilation)")
+    print(f"maps speedup {machine / whole:.2f}; estimates equal to the last digit: {same}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=positive_float, default=120.0, help="length of the random-motion record (s)")
@@ -90,6 +116,7 @@ def main() -> None:
     recording = record_random_test(robot, args.seconds, seed=args.seed)
     fast, fast_result = timed_fits(recording, args.repeats)
     hac_timing(recording)
+    map_timing(recording, args.repeats)
     os.environ[compiled.COMPILE_ENV] = "0"
     compiled._CACHE.clear()
     slow, slow_result = timed_fits(recording, args.repeats)

@@ -408,3 +408,32 @@ def test_the_newey_west_score_covariance_is_the_bartlett_weighted_sum_over_lags(
     omega = _hac_scores(jac, residuals, lags)
     np.testing.assert_allclose(omega, expected, rtol=1e-10, atol=1e-10 * np.abs(expected).max())
     assert np.all(np.linalg.eigvalsh(omega) >= -1e-9 * np.abs(expected).max())  # a covariance
+
+
+def test_a_structure_refitted_to_one_log_length_runs_on_compiled_maps_with_the_same_estimates(monkeypatch):
+    # the discrepancy workflow re-identifies one structure on one record many times: from the
+    # COMPILE_MAPS_AT-th identification on the maps over the samples are compiled whole, and the
+    # estimates stay those of the first identifications
+    from simulation.identification import compiled, fit
+
+    if compiled._compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    params = RavenParameters().only(*MODEL).with_effect(
+        RavenParameters().effect("cable_stretch").replace(damping=np.zeros(3)))
+    log = model_log(params, 20.0, 30.0, 0.5)
+    monkeypatch.setattr(fit, "_CACHES", fit._Caches())
+    used = []
+    original = fit._Problem.solve
+    monkeypatch.setattr(fit._Problem, "solve", lambda self, *a, **k: used.append(self.maps.compiled) or original(
+        self, *a, **k))
+    results = []
+    for _ in range(fit.COMPILE_MAPS_AT):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PoorlyIdentifiedWarning)
+            results.append(identify(log, effects=MODEL, base=recovery_start(params)))
+    passes = len(used) // fit.COMPILE_MAPS_AT
+    assert used == [False] * (passes * (fit.COMPILE_MAPS_AT - 1)) + [True] * passes
+    first, last = results[0], results[-1]
+    for a, b in zip(first.estimates, last.estimates):
+        assert b.value == pytest.approx(a.value, rel=1e-9, abs=1e-12), a.name
+        assert b.standard_error == pytest.approx(a.standard_error, rel=1e-6), a.name

@@ -104,3 +104,54 @@ def test_compiling_writes_nothing_to_the_working_directory(monkeypatch, tmp_path
     assert list(tmp_path.iterdir()) == []
     folder = compiled._source_folder()
     assert not folder.startswith(str(tmp_path)) and any(name.endswith(".c") for name in os.listdir(folder))
+
+
+def _mapped_inputs(layout, rng, n):
+    xi, _, sigma, references = _inputs(layout, rng)
+    data = rng.normal(0, 1, (N_DATA, n))
+    data[-6:] = rng.integers(0, 2, (6, n))  # the residual weights: some residuals left out
+    return xi, data, sigma, references
+
+
+@needs_compiler
+def test_maps_compiled_whole_give_the_numbers_of_the_virtual_machines_maps(monkeypatch):
+    layout, residual = _residual()
+    monkeypatch.setattr(compiled, "_CACHE", {})
+    functions = compiled.sample_functions(residual)
+    n = 37
+    machine, whole = compiled.mapped(functions, n), compiled.compiled_maps(functions, n)
+    assert set(whole) == set(machine) == set(compiled.SAMPLE_FUNCTIONS)
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        args = _mapped_inputs(layout, rng, n)
+        for name in compiled.SAMPLE_FUNCTIONS:
+            a, b = (np.array(maps[name](*args)) for maps in (whole, machine))
+            assert a.shape == b.shape, name
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(b).max()), err_msg=name)
+    # the cost is summed over the samples, the residuals are one column per sample
+    xi, data, sigma, references = _mapped_inputs(layout, rng, n)
+    per_sample = sum(float(functions.cost(xi, data[:, k], sigma, references)) for k in range(n))
+    assert float(whole["cost"](xi, data, sigma, references)) == pytest.approx(per_sample, rel=1e-12)
+    assert np.array(whole["residual"](xi, data, sigma, references)).shape == (N_RESIDUALS, n)
+
+
+def test_without_a_compiler_there_are_no_compiled_maps(monkeypatch):
+    _, residual = _residual()
+    monkeypatch.setenv(compiled.COMPILE_ENV, "0")
+    monkeypatch.setattr(compiled, "_CACHE", {})
+    assert compiled.compiled_maps(compiled.sample_functions(residual), 12) is None
+
+
+@needs_compiler
+def test_maps_that_fail_to_compile_fall_back_with_one_warning(monkeypatch, tmp_path):
+    layout, residual = _residual()
+    monkeypatch.setattr(compiled, "_CACHE", {})
+    monkeypatch.setattr(compiled, "_FAILED", [])
+    functions = compiled.sample_functions(residual)
+    broken = tmp_path / "cc"
+    broken.write_text("#!/bin/sh\nexit 1\n")
+    broken.chmod(0o755)
+    monkeypatch.setattr(compiled, "_compiler", lambda: None if compiled._FAILED else str(broken))
+    with pytest.warns(RuntimeWarning, match="could not compile the identification's maps"):
+        assert compiled.compiled_maps(functions, 12) is None
+    assert compiled.compiled_maps(functions, 12) is None  # no second attempt, no second warning

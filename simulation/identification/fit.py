@@ -61,7 +61,7 @@ from simulation.identification.layout import (
     ParameterLayout,
     build_layout,
 )
-from simulation.identification.compiled import SampleFunctions, sample_functions
+from simulation.identification.compiled import SampleFunctions, compiled_maps, mapped, sample_functions
 from simulation.identification.residuals import D_GRAVITY, D_INERTIAL, D_Q, D_QD, D_TAU, D_U, D_UD, D_UDD, D_WQ, D_WT, N_DATA, residual_function
 from simulation.identification.result import FitReport, IdentificationResult, NotIdentifiableError, ParameterEstimate, PoorlyIdentifiedWarning
 from simulation.identification.samples import DERIVATIVE_WINDOW, IdentificationSamples, prepare_samples
@@ -172,12 +172,15 @@ uninformed start, keeps the monotone update: adaptive from there, the capstan lo
 @dataclass(frozen=True)
 class _SampleMaps:
     """The per-sample functions mapped over ``n`` samples; the unknowns, the channel scales and the
-    references are shared by every sample, the data matrix has one column per sample."""
+    references are shared by every sample, the data matrix has one column per sample. ``compiled``:
+    the maps themselves are machine code (:func:`~.compiled.compiled_maps`), not only the
+    per-sample functions they call."""
 
     cost: ca.Function
     gauss_newton: ca.Function
     residual: ca.Function
     jacobian: ca.Function
+    compiled: bool = False
 
 
 _CACHE_SIZE = 16
@@ -186,6 +189,14 @@ workflow re-identifies one structure on one record many times (19 fits in one an
 two-minute record); building the solvers took 9.1 s and the maps 1.2 s of those fits' 21.9 s
 under the profiler."""
 
+COMPILE_MAPS_AT = 4
+"""The identification of a structure on a record of a given length that has its maps compiled
+(:func:`~.compiled.compiled_maps`): the fourth, and every later one while they are remembered.
+Compiling them takes about a second, and each identification of a two-minute record then takes
+about a third less, to the same estimates (``python benchmarks/bench_identification.py``): a
+structure and length seen once or twice (most logs of the UKF and of the tests) are not worth it,
+the two dozen re-identifications of a discrepancy analysis are."""
+
 
 class _Caches(threading.local):
     """Each thread keeps its own: a solver's statistics are those of its last call."""
@@ -193,6 +204,7 @@ class _Caches(threading.local):
     def __init__(self):
         self.maps: OrderedDict = OrderedDict()
         self.solvers: OrderedDict = OrderedDict()
+        self.uses: dict = {}
 
 
 _CACHES = _Caches()
@@ -213,17 +225,21 @@ def _remembered(cache: OrderedDict, functions: SampleFunctions, key: tuple, buil
 
 
 def _sample_maps(functions: SampleFunctions, n: int) -> _SampleMaps:
-    def build():
-        shared = [0, 2, 3]
-        return _SampleMaps(cost=functions.cost.map("cost_map", "serial", n, shared, [0]),
-                           gauss_newton=functions.gauss_newton.map("gauss_newton_map", "serial", n, shared, [0]),
-                           residual=functions.residual.map("residual_map", "serial", n, shared, []),
-                           jacobian=functions.jacobian.map("jacobian_map", "serial", n, shared, []))
+    """The maps of ``functions`` over ``n`` samples for one more identification: compiled whole
+    from the :data:`COMPILE_MAPS_AT`-th identification of this structure and length on, the
+    virtual machine's before (or when nothing compiles)."""
+    # the per-sample functions live as long as the process (compiled._CACHE), so their id is theirs
+    key = (id(functions), n)
+    _CACHES.uses[key] = _CACHES.uses.get(key, 0) + 1
+    if _CACHES.uses[key] >= COMPILE_MAPS_AT and functions.compiled:
+        maps = _remembered(_CACHES.maps, functions, (n, True), lambda: compiled_maps(functions, n))
+        if maps is not None:
+            return _SampleMaps(**maps, compiled=True)
+    return _remembered(_CACHES.maps, functions, (n, False), lambda: _SampleMaps(**mapped(functions, n)))
 
-    return _remembered(_CACHES.maps, functions, (n,), build)
 
-
-def _solver(functions: SampleFunctions, n: int, max_iterations: int, print_level: int, warm: bool) -> ca.Function:
+def _solver(functions: SampleFunctions, maps: _SampleMaps, n: int, max_iterations: int, print_level: int,
+            warm: bool) -> ca.Function:
     """IPOPT on the mean sample cost, with the data, the channel scales and the references as the
     problem's parameter vector ``[vec(data); sigma; references]`` (data column by column), so that
     one solver serves every fit of a structure to a record of ``n`` samples.
@@ -235,7 +251,6 @@ def _solver(functions: SampleFunctions, n: int, max_iterations: int, print_level
     here.
     """
     def build():
-        maps = _sample_maps(functions, n)
         p, rows, n_sigma, n_references = (functions.cost.size1_in(i) for i in range(4))
         xi = ca.MX.sym("xi", p)
         parameters = ca.MX.sym("p", rows * n + n_sigma + n_references)
@@ -254,7 +269,8 @@ def _solver(functions: SampleFunctions, n: int, max_iterations: int, print_level
                                        "tol": 1e-8, "acceptable_tol": 1e-5, "acceptable_iter": 2,
                                        **(_WARM_START if warm else {})}})
 
-    return _remembered(_CACHES.solvers, functions, (n, int(max_iterations), int(print_level), bool(warm)), build)
+    return _remembered(_CACHES.solvers, functions, (n, maps.compiled, int(max_iterations), int(print_level), bool(warm)),
+                       build)
 
 
 class _Problem:
@@ -281,7 +297,7 @@ class _Problem:
 
     def solve(self, xi0, sigma, max_iterations: int, print_level: int = 0,
               warm: bool = False) -> tuple[np.ndarray, int, str]:
-        solver = _solver(self.functions, self.n, max_iterations, print_level, warm)
+        solver = _solver(self.functions, self.maps, self.n, max_iterations, print_level, warm)
         lower, upper = self.layout.bounds()
         parameters = np.concatenate([self.data.ravel(order="F"), np.asarray(sigma, dtype=float), self.references])
         solution = solver(x0=np.asarray(xi0, dtype=float), p=parameters, lbx=lower, ubx=upper)
