@@ -33,6 +33,21 @@ def test_same_seed_same_data_and_different_seed_different_data():
     assert not np.array_equal(a.values, c.values)
 
 
+def test_a_concatenated_recording_keeps_the_label_order_so_its_files_are_the_same_in_every_process(short_run):
+    # the labels become the dataset file's last columns: their order must not follow the process's
+    # string hashing (PYTHONHASHSEED), or one seed's record is written to different bytes each run
+    names = ("zeta", "segment", "alpha", "mu", "payload_kg", "beta")
+    index, half = np.arange(len(short_run)), len(short_run) // 2
+    first, second = short_run.select(index < half - 5), short_run.select(index > half + 5)
+    labelled = [Recording(**{**vars(r), "labels": {n: np.full(len(r), k, dtype=np.int64) if n == "segment"
+                                                  else np.full(len(r), float(k)) for k, n in enumerate(names)}})
+                for r in (first, second)]
+    joined = Recording.concatenate(labelled)
+    assert tuple(joined.labels) == names
+    columns = [c for c in recording_to_dataset(joined, RavenII(joined.arm)).table.columns if c.startswith("label.")]
+    assert columns == [f"label.{n}" for n in names]
+
+
 def test_recording_rates_match_the_papers_30_hz_state_and_100_hz_truth(short_run):
     assert np.median(np.diff(short_run.time)) == pytest.approx(1 / 30, abs=1.5e-3)
     np.testing.assert_allclose(np.diff(short_run.truth_time), 0.01, atol=1e-9)

@@ -146,9 +146,10 @@ class Recording:
         for a, b in zip(recordings, recordings[1:]):
             if len(a) and len(b) and b.time[0] <= a.time[-1]:
                 raise ValueError("recordings must be in time order without overlap")
-        label_keys = set(recordings[0].labels)
         labels = {}
-        for key in label_keys:
+        # the first recording's order: a file written from the result is then the same byte for byte
+        # in every process (a set's order follows the process's string hashing)
+        for key in recordings[0].labels:
             parts = []
             for r in recordings:
                 value = r.labels[key]
