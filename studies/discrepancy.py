@@ -67,9 +67,9 @@ from studies.common.discrepancy_runs import (
     analysed_rows,
     analysis_settings,
     check_analysable,
-    check_hidden,
     drift_record_note,
     generate_measured,
+    hidden_effects,
     learned_calibrators_on_dvrk,
     log_rate_options,
     read_flagged,
@@ -97,26 +97,12 @@ from studies.common.runner import (
 STUDY = "discrepancy"
 
 
-def parse_hidden(text: str) -> tuple[str, ...]:
-    """``"none"`` -> (); ``"backlash,drift"`` -> ("backlash", "drift"), refusing what cannot be hidden."""
-    names = tuple(n.strip() for n in text.split(",") if n.strip())
-    if names == ("none",):
-        return ()
-    if not names:
-        raise argparse.ArgumentTypeError(f"unknown hidden effect {text!r}; choose 'none' or from "
-                                         f"{', '.join(HIDDEN_CHOICES[1:])}")
-    try:
-        return check_hidden(names)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
-
-
 def parse_effect_list(text: str) -> tuple[str, ...]:
     """``"none,backlash"`` -> ("none", "backlash"): the hidden effects of a sweep, each a valid choice."""
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     for name in names:
         if name != "none":
-            parse_hidden(name)
+            hidden_effects(name)
     if not names:
         raise argparse.ArgumentTypeError(f"expected effect names separated by commas, got {text!r}")
     return names
@@ -177,7 +163,7 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
 def main(argv=None) -> int:
     parser = script_parser(STUDY, __doc__)
     source = parser.add_mutually_exclusive_group(required=True)
-    source.add_argument("--hidden-effect", type=parse_hidden, metavar="NAME",
+    source.add_argument("--hidden-effect", type=hidden_effects, metavar="NAME",
                         help=f"'none' or effects to hide, comma-separated: {', '.join(HIDDEN_CHOICES[1:])}")
     source.add_argument("--measured", type=existing_path, metavar="PATH",
                         help="recorded data: a dataset file, bag(s), or the dVRK folder format (blind analysis)")

@@ -408,6 +408,23 @@ def check_record_length(duration) -> float:
     return value
 
 
+def hidden_effects(text: str) -> tuple[str, ...]:
+    """A command line's ``--hidden-effect``: ``"none"`` -> (); ``"backlash,drift"`` -> ("backlash",
+    "drift"), refusing what cannot be hidden (:func:`check_hidden`)."""
+    import argparse
+
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if names == ("none",):
+        return ()
+    if not names:
+        raise argparse.ArgumentTypeError(f"unknown hidden effect {text!r}; choose 'none' or from "
+                                         f"{', '.join(HIDDEN_CHOICES[1:])}")
+    try:
+        return check_hidden(names)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def record_length(text: str) -> float:
     """A command line's ``--duration``: seconds of generated motion (:func:`check_record_length`)."""
     import argparse
