@@ -125,9 +125,26 @@ def test_cli_runs_on_a_dataset_file_split_in_time(data, tmp_path):
     assert json.loads((out / "results.json").read_text())["test"]["joint_rmse"]["raw"] is not None
     # a finding on recorded data says so, and carries no note on what the simulator was fitted to
     report = (out / "report.md").read_text()
-    assert "**Finding (test on recorded data): " in report and "Measured: on the held-out test, per joint" in report
+    assert "**Finding (test on recorded data): " in report and "Measured: on the held-out test" in report
     assert "Simulated:" not in report and "fit targets of the simulator" not in report
     assert "## held-out test: joint space (Table III)" in report and "test test" not in report
+    # the last 30 % of a one-minute recording is under a minute: the finding names it short
+    seconds = document["data"]["test"]["duration_s"]
+    assert seconds < compare_sota.SHORT_TEST_S
+    assert f"Measured: on the held-out test ({seconds:.1f} s, under a minute of motion: weak evidence), per joint" in report
+
+
+@pytest.mark.parametrize("seconds, short", [(59.9, True), (60.0, False), (1200.0, False), (None, False)])
+def test_the_finding_names_a_test_under_a_minute_short(seconds, short):
+    ordering = {"linear<fixed_offset": [True] * 3, "dnn<fixed_offset": [True] * 3,
+                "fixed_offset<raw": [True] * 3, "all": True}
+    document = {"tests": ["test"], "test": {"paper_ordering": ordering}, "source": "dataset file session.parquet",
+                "data": {} if seconds is None else {"test": {"duration_s": seconds}}}
+    line = compare_sota.finding(document)
+    assert line.startswith("**Finding (test on recorded data): AGREES with the paper.**")
+    assert ("under a minute of motion" in line) is short
+    if short:
+        assert "on the held-out test (59.9 s, under a minute of motion: weak evidence), per joint" in line
 
 
 def test_recorded_data_errors_are_clear(tmp_path):
