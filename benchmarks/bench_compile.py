@@ -4,13 +4,13 @@ Run:  python benchmarks/bench_compile.py [--repeats 2] [--stages]
 
 Each measurement is a new Python process with an empty numba cache (``NUMBA_CACHE_DIR`` set to a
 new temporary folder), which is what every test worker and study process of a fresh clone starts
-from. It prints the process's CPU seconds for:
+from. It prints the process's CPU seconds for each kernel group of :mod:`simulation.kernels`:
 
 - ``servo``: homing the virtual RAVEN-II and two seconds of random motion (compiles the 1 kHz
   servo loop and the kinematics it inlines);
 - ``identification``: the links' gravity and inertial loads of an identification's samples
   (:func:`simulation.identification.samples._gravity_and_inertia`) on ten rows;
-- ``replay``: one discrepancy replay of a cable model with every candidate effect's series.
+- ``replay``: the discrepancy replay's series of a cable model and of backlash.
 
 Each line gives the median over ``--repeats`` processes, the import time included (about 3 s of
 it). Run it on two versions to compare them.
@@ -32,34 +32,14 @@ from pathlib import Path
 
 import numpy as np
 
+from simulation.kernels import GROUPS
 from studies.common.runner import positive_int
 
 ROOT = Path(__file__).resolve().parents[1]
 
-WORKLOADS = {
-    "servo": """
-from simulation.engine.scenarios import powered_on, record_random_test
-from simulation.model.parameters import RavenParameters
-record_random_test(powered_on(RavenParameters(), seed=2), 2.0, seed=3)
-""",
-    "identification": """
-import numpy as np
-from simulation.identification.nominal import nominal_parameters
-from simulation.identification.samples import _gravity_and_inertia, arm_model
-q = np.tile([0.5, 1.6, 0.4], (10, 1))
-_gravity_and_inertia(q, np.zeros((10, 3)), arm_model(nominal_parameters("left")).gravity_coefficients(0.0))
-""",
-    "replay": """
-import numpy as np
-from simulation.discrepancy.replay import cable_link_series, play_series
-n = 100
-x = np.linspace(0.0, 1.0, n)
-restart = np.zeros(n, dtype=np.bool_)
-restart[0] = True
-cable_link_series(x, x, np.full(n, 0.1), np.ones(n), 40.0, 0.5, 1.0, 0.7, 0.3, x, restart, 0.01)
-play_series(x, 0.01, restart)
-""",
-}
+WORKLOADS = {name: f"from simulation.kernels import compile_groups\ncompile_groups([{name!r}])\n" for name in GROUPS}
+"""Code compiling each kernel group of :mod:`simulation.kernels` (the servo loop, the identification's
+loads, the replay's series), run in a new process."""
 
 
 STAGES = """
