@@ -80,8 +80,8 @@ a point (81.4 % and 79.2 %, named alone; seed 6: ``python studies/discrepancy_ro
 costs a second backfit: of seeds 0 to 7 (``python studies/discrepancy.py --hidden-effect backlash
 --seed S --duration 120 --size-factor 3 --backfit-rounds 6``), backlash is named first on every
 one, alone on seeds 1, 3, 5 and 6 (81.4 %, 69.3 %, 48.6 %, 79.2 %) and with capstan friction
-second on seeds 0, 2, 4 and 7 (79.5 %, 75.7 %, 78.0 %, 83.4 %); seed 0's analysis took 31.6 s of
-CPU, seed 6's 14.6 s. Seed 5 closes under half: two minutes do not resolve backlash on every seed
+second on seeds 0, 2, 4 and 7 (79.5 %, 75.7 %, 78.0 %, 83.4 %); in the suite seed 0's test took
+31.6 s and seed 1's 15.2 s. Seed 5 closes under half: two minutes do not resolve backlash on every seed
 even at three times its size."""
 
 
