@@ -38,8 +38,9 @@ KERNEL_WARMUPS = (("servo",), ("identification", "replay"))
 process per tuple, started with the run. On a fresh clone every worker would otherwise compile the
 same kernels in its first tests (the servo loop some 15 s to 30 s of CPU each, the others about
 15 s); compiled once, while the workers start and collect, they are loaded from numba's cache. A
-worker waits for them after collecting, before its first test, at most :data:`KERNEL_WAIT_S`.
-Without workers (no ``-n``) nothing is compiled ahead."""
+worker waits for them after collecting, before its first test, at most :data:`KERNEL_WAIT_S`,
+whether its tests need them or not: a run of a few quick tests is quicker without ``-n``, and
+without workers nothing is compiled ahead."""
 
 KERNEL_WAIT_S = 300.0
 """Longest wait of a worker for the kernels compiled ahead (s); after it the worker compiles what it
