@@ -97,3 +97,5 @@ def pytest_unconfigure(config):
         process.wait()
     if hasattr(config, "_kernel_folder"):
         shutil.rmtree(config._kernel_folder, ignore_errors=True)
+        # a process started after the run must not wait for files that are gone
+        os.environ.pop(_KERNELS_READY, None)
