@@ -13,7 +13,9 @@ signatures are the ones real work asks for:
   sensors, controller, plant and the kinematics they inline);
 - ``identification``: the links' gravity and inertial loads of an identification's samples;
 - ``replay``: the discrepancy replay's series of a cable model (cable, hysteresis, friction) and of
-  backlash.
+  backlash;
+- ``plant_replay``: the plant driven by logged motor positions (the servo loop's plant functions,
+  inlined into a loop of their own).
 
 Run:  python -m simulation.kernels GROUP [GROUP ...] [--done FILE]
 """
@@ -52,7 +54,17 @@ def _replay() -> None:
     play_series(x, 0.01, restart)
 
 
-GROUPS = {"servo": _servo, "identification": _identification, "replay": _replay}
+def _plant_replay() -> None:
+    from kinematics import RavenII
+    from simulation.engine.plant_replay import replay_links
+    from simulation.identification.nominal import nominal_parameters
+
+    pose = np.tile([0.5, 1.6, 0.4], (10, 1))
+    replay_links(nominal_parameters("left"), RavenII("left", check_limits=False), np.arange(10) * 1e-3, pose, pose)
+
+
+GROUPS = {"servo": _servo, "identification": _identification, "replay": _replay,
+          "plant_replay": _plant_replay}
 """Kernel groups by name, each the code that compiles it."""
 
 

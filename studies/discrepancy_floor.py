@@ -21,7 +21,12 @@ part of the gap, so the floor is what no analysis of this motion closes. The stu
   a replay to use);
 - the replay's viscous and inertial loads both from the derivatives the identification fits with
   (centred Savitzky-Golay fits of a cubic over 0.6 s, which look 0.3 s ahead): how much of the floor is the
-  noise and lag of the causal derivatives in the loads.
+  noise and lag of the causal derivatives in the loads;
+- with ``--dynamic``, the links' swing on their cables followed
+  (:mod:`simulation.engine.plant_replay`: the simulator's two-mass plant driven by the
+  measured motor positions), with the identified starting model's parameters (damping at its
+  nominal value, as the identification holds it) and, since the diagnostic knows the generator,
+  with the generator's own: how much of the floor the quasi-static replay's missing dynamics are.
 
 With ``--effects``, for each effect hidden on the same seed (at its default size, or
 ``--size-factor`` times it), the starting model's held-out gap on that record and ``1 - floor /
@@ -34,9 +39,18 @@ replay and with the links' inertial loads from the motors' acceleration
 bound each replay's floor sets: what a lower floor would change (about four minutes of CPU per
 analysis of a twenty-minute record).
 
+With ``--dynamic`` as well, the same gap and bound with the dynamic replay (its floor over its gap):
+the most a model replayed that way could close; and for an effect the plant carries
+(:data:`DYNAMIC_FITS`), the effect's parameters fitted with the dynamic replay on the fit part
+together with the starting model's Coulomb forces (:func:`dynamic_oracle`), and the share of the
+dynamic replay's held-out gap that closes: whether a lower floor lets a model of the right
+structure close more (about six minutes of CPU per twenty-minute record).
+
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
 the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
-core); ``--seed 31 --seeds 2 --effects backlash --analyse`` (four analyses, 18 minutes).
+core); ``--seed 31 --seeds 2 --effects backlash --analyse`` (four analyses, 18 minutes);
+``--effects backlash --dynamic`` (five fits with the plant replay besides, 19 minutes on 2 cores run
+as two commands, ``--seed 30 --seeds 3`` and ``--seed 33 --seeds 2``).
 """
 
 from __future__ import annotations
@@ -186,17 +200,116 @@ loads left out, from :func:`motor_side_acceleration`, from :func:`centred_accele
 with the present sample, and the viscous and inertial loads from :func:`identification_derivatives`."""
 
 
+DYNAMIC_VARIANTS = ("dynamic replay", "dynamic replay, generator's parameters")
+"""The replays of ``--dynamic`` (:func:`dynamic_held_out_gap`): the identified starting model's
+parameters, and the generator's own, in the plant that follows the links' swing."""
+
+
+def dynamic_joints(params, offsets, signals, robot) -> np.ndarray:
+    """(N, 3) joints (SI) of the plant replay of ``params`` along RAVEN-II ``signals``
+    (:func:`~simulation.engine.plant_replay.replay_links`): the links, started at rest from the
+    measured joints minus the registration ``offsets`` at the first sample and each re-homing,
+    plus ``offsets``."""
+    from simulation.engine.plant_replay import replay_links
+
+    payload = np.asarray(signals.payload_kg, dtype=float)
+    if np.ptp(payload) > 0:
+        raise ValueError("the plant replay builds the links' gravity for one payload; this record's declared payload "
+                         f"changes from {payload.min():g} kg to {payload.max():g} kg")
+    offsets = np.asarray(offsets, dtype=float)
+    return replay_links(params, robot, signals.time, signals.drive, signals.truth - offsets, signals.restarts,
+                        float(payload[0])) + offsets
+
+
+def dynamic_held_out_gap(params, offsets, signals, split, robot) -> np.ndarray:
+    """Held-out residual RMS per joint (SI) of :func:`dynamic_joints`, its constant offsets fitted
+    on the fit part as the workflow fits them."""
+    residual = signals.truth - dynamic_joints(params, offsets, signals, robot)
+    held_out = residual[split.held_out] - residual[split.fit].mean(axis=0)
+    return np.sqrt(np.mean(np.square(held_out), axis=0))
+
+
+DYNAMIC_FITS = ("backlash",)
+"""Effects :func:`dynamic_oracle` fits with the dynamic replay: those of the library whose candidate
+changes only what the plant integrates."""
+
+
+def dynamic_oracle(effect: str, seed: int, duration: float, size_factor: float = 1.0,
+                   max_evaluations: int = 600) -> dict:
+    """The hidden ``effect`` fitted with the dynamic replay on the fit part of its generated record.
+
+    The starting structure is identified as the blind analysis identifies it (quasi-statically, on
+    the first half). The library's candidate of ``effect`` is then fitted together with the starting
+    model's Coulomb friction forces, which an identification without the effect uses to mimic its
+    lag, by Powell's method: at most ``max_evaluations`` replays of the fit part, from the
+    candidate's own starting value within its search range and the identified forces (between zero
+    and three times them), minimising the fit part's joint residual of the dynamic replay, each
+    joint over its spread under the starting model, the constant offsets profiled out. The rest of
+    the starting structure stays as identified. Returns the dynamic replay's held-out gap per joint
+    (SI) before and after, the shrink (pooled, deg and mm), the fitted values (SI) and the replays
+    it took.
+    """
+    from scipy.optimize import minimize
+
+    from studies.common.discrepancy_runs import (
+        generate_measured, raven_library, read_measured, starting_model_on, write_measured)
+
+    if effect not in DYNAMIC_FITS:
+        raise ValueError(f"the dynamic oracle fits {', '.join(DYNAMIC_FITS)}, not {effect!r}")
+    generated, _ = generate_measured((effect,), seed, duration, size_factor=size_factor)
+    with tempfile.TemporaryDirectory() as folder:
+        dataset = read_measured(write_measured(generated, folder))
+    signals, split, robot, model = starting_model_on(dataset)
+    (candidate,) = raven_library(signals, (effect,))
+    lower, upper, scale, typical = candidate.bounds()
+    friction = model.params.effect("coulomb_friction")
+    identified = np.asarray(friction.force[:3], dtype=float)
+    k = candidate.n_parameters
+    head = signals.head(int(np.flatnonzero(split.fit)[-1]) + 1)
+    fit = split.fit[:len(head)]
+
+    def fit_residual(m):
+        r = (head.truth - dynamic_joints(m.params, m.offsets, head, robot))[fit]
+        return r - r.mean(axis=0)
+
+    def build(x):
+        with_it = candidate.apply(model, np.clip(x[:k] * scale, lower, upper))
+        forces = np.r_[np.maximum(x[k:], 0.0) * identified, np.asarray(friction.force, dtype=float)[3:]]
+        return with_it.with_effect(with_it.params.effect("coulomb_friction").replace(force=forces))
+
+    spread = np.maximum(np.std(fit_residual(model), axis=0), 1e-12)
+    replays = 0
+
+    def objective(x):
+        nonlocal replays
+        replays += 1
+        return float(np.sum(np.square(fit_residual(build(np.asarray(x))) / spread)))
+
+    bounds = list(zip(lower / scale, upper / scale)) + [(0.0, 3.0)] * 3
+    solution = minimize(objective, np.r_[np.clip(typical, lower, upper) / scale, np.ones(3)], method="Powell",
+                        bounds=bounds, options={"maxfev": int(max_evaluations), "xtol": 1e-3, "ftol": 1e-7})
+    fitted = build(solution.x)
+    before = dynamic_held_out_gap(model.params, model.offsets, signals, split, robot)
+    after = dynamic_held_out_gap(fitted.params, fitted.offsets, signals, split, robot)
+    values = {k_: np.asarray(v, dtype=float).tolist()
+              for k_, v in candidate.unpack(np.clip(solution.x[:k] * scale, lower, upper)).items()}
+    values["coulomb_force"] = (np.maximum(solution.x[k:], 0.0) * identified).tolist()
+    return {"gap_before": before.tolist(), "gap_after": after.tolist(), "shrink": 1.0 - pooled(after) / pooled(before),
+            "fitted": values, "identified_coulomb_force": identified.tolist(), "replays": replays}
+
+
 def pooled(rms: np.ndarray) -> float:
     """Pooled RMS (deg and mm) of per-joint RMS values in SI (the workflow's pooled gap)."""
     return float(np.sqrt(np.mean(np.square(np.asarray(rms) * TO_REPORT))))
 
 
 def starting_model_residuals(hidden, seed: int, duration: float, size_factor: float = 1.0,
-                             variants: bool = False) -> dict:
+                             variants: bool = False, dynamic: bool = False) -> dict:
     """Held-out residual RMS per joint (SI) of the starting structure identified on the first half
     of the generated record of ``hidden``, replayed as the workflow replays it (``"replay"``) and,
-    with ``variants``, as the other :data:`VARIANTS` replay it; also the held-out residual itself,
-    the log rate and the encoders' floor of the generator."""
+    with ``variants``, as the other :data:`VARIANTS` replay it, with ``dynamic`` as the
+    :data:`DYNAMIC_VARIANTS` do; also the held-out residual itself, the log rate and the encoders'
+    floor of the generator."""
     from simulation.model.constants import RavenConstants
     from studies.common.discrepancy_runs import (
         generate_measured, held_out_gap, held_out_residual, read_measured, starting_model_on, write_measured)
@@ -216,6 +329,10 @@ def starting_model_residuals(hidden, seed: int, duration: float, size_factor: fl
         velocity, acceleration = identification_derivatives(signals)
         replays[VARIANTS[-1]] = signals.with_derivatives(velocity=velocity, acceleration=acceleration)
         out.update({name: held_out_gap(model, replayed, split, robot) for name, replayed in replays.items()})
+    if dynamic:
+        identified, true = DYNAMIC_VARIANTS
+        out[identified] = dynamic_held_out_gap(model.params, model.offsets, signals, split, robot)
+        out[true] = dynamic_held_out_gap(generator, model.offsets, signals, split, robot)
     return out
 
 
@@ -270,6 +387,8 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--size-factor", type=positive_float, default=1.0, help="the hidden effects' size (x default)")
     parser.add_argument("--analyse", action="store_true",
                         help="analyse each effect's record with the workflow's replay and with motor-side inertial loads")
+    parser.add_argument("--dynamic", action="store_true",
+                        help="also replay with the links' swing on their cables followed (the simulator's plant)")
     parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
     args = parser.parse_args(argv)
 
@@ -280,7 +399,7 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"held-out residual of the identified starting model, nothing hidden, {args.duration:g} s records "
           "(deg, deg, mm; pooled in deg and mm)")
     for seed in out["seeds"]:
-        floor = starting_model_residuals((), seed, args.duration, variants=True)
+        floor = starting_model_residuals((), seed, args.duration, variants=True, dynamic=args.dynamic)
         sensors = floor["sensor_floor"]
         bands = band_rms(floor["held_out"], floor["rate_hz"])
         white = white_band_rms(sensors, floor["rate_hz"])
@@ -299,13 +418,33 @@ def main(argv: list[str] | None = None) -> dict:
         for name in VARIANTS[1:]:
             print(f"    replayed with {name}: {_numbers(floor[name] * TO_REPORT)} "
                   f"(pooled {run['variants'][name]['floor_pooled']:.5f})", flush=True)
+        for name in DYNAMIC_VARIANTS if args.dynamic else ():
+            run["variants"][name] = {"floor": floor[name].tolist(), "floor_pooled": pooled(floor[name])}
+            print(f"    {name}: {_numbers(floor[name] * TO_REPORT)} (pooled {pooled(floor[name]):.5f})", flush=True)
         for effect in effects:
-            gap = starting_model_residuals((effect,), seed, args.duration, size_factor=args.size_factor)["replay"]
+            residuals = starting_model_residuals((effect,), seed, args.duration, size_factor=args.size_factor,
+                                                 dynamic=args.dynamic)
+            gap = residuals["replay"]
             bound = floor_bound(floor["replay"], gap, RAVEN_UNITS)
             run["effects"][effect] = {"gap_before": gap.tolist(), "gap_before_pooled": pooled(gap),
                                       "bound": bound}
             print(f"    {effect} hidden: starting model's held-out gap {_numbers(gap * TO_REPORT)} (pooled "
                   f"{pooled(gap):.5f}); 1 - floor / gap = {100 * bound:.1f} %", flush=True)
+            if args.dynamic:
+                name = DYNAMIC_VARIANTS[0]
+                dynamic_gap = residuals[name]
+                dynamic_bound = floor_bound(floor[name], dynamic_gap, RAVEN_UNITS)
+                run["effects"][effect]["dynamic"] = {"gap_before": dynamic_gap.tolist(),
+                                                     "gap_before_pooled": pooled(dynamic_gap), "bound": dynamic_bound}
+                print(f"    {effect} hidden, {name}: held-out gap {_numbers(dynamic_gap * TO_REPORT)} (pooled "
+                      f"{pooled(dynamic_gap):.5f}); 1 - floor / gap = {100 * dynamic_bound:.1f} %", flush=True)
+                if effect in DYNAMIC_FITS:
+                    run["effects"][effect]["dynamic"]["oracle"] = fitted = dynamic_oracle(
+                        effect, seed, args.duration, args.size_factor)
+                    print(f"    {effect} fitted with the {name} with the Coulomb forces ({fitted['replays']} replays): "
+                          f"{_numbers(np.asarray(fitted['fitted']['half_width']) * TO_REPORT)}; held-out gap "
+                          f"{_numbers(np.asarray(fitted['gap_after']) * TO_REPORT)}; closes "
+                          f"{100 * fitted['shrink']:.1f} % of the {name}'s gap", flush=True)
             if args.analyse:
                 run["effects"][effect]["analyses"] = analyses = analyse_both(effect, seed, args.duration,
                                                                              args.size_factor)

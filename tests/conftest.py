@@ -33,7 +33,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 # The numba kernels, compiled once ahead of the workers ---------------------------------------
 
-KERNEL_WARMUPS = (("servo",), ("identification", "replay"))
+KERNEL_WARMUPS = (("servo",), ("identification", "replay", "plant_replay"))
 """Kernel groups (:mod:`simulation.kernels`) compiled ahead of ``pytest -n N``'s workers, one new
 process per tuple, started with the run. On a fresh clone every worker would otherwise compile the
 same kernels in its first tests (the servo loop some 15 s to 30 s of CPU each, the others about

@@ -40,9 +40,9 @@ UNMODELLED_EFFECTS = ("capstan_runout",)
 """Simulator effects neither in the starting structure nor in the library: hiding one tests that the
 workflow reports the residual as unexplained, with a signature, rather than under a wrong name."""
 HIDDEN_CHOICES = ("none",) + LIBRARY + UNMODELLED_EFFECTS
+"""What ``--hidden-effect`` accepts: nothing, any candidate of the library, or an unmodelled effect."""
 SESSION_EFFECTS = ("payload",)
 """Hidden effects that are a condition of the session, not an effect of the simulator."""
-"""What ``--hidden-effect`` accepts: nothing, any candidate of the library, or an unmodelled effect."""
 ABLATION_CHOICES = tuple(n for n in STARTING_STRUCTURE if n != "cable_stretch")
 """What ``--ablate`` accepts: a term of the starting structure, which the analysis then lacks."""
 MEASUREMENT_EFFECTS = ("quantization", "noise")
