@@ -46,6 +46,11 @@ together with the starting model's Coulomb forces (:func:`dynamic_oracle`), and 
 dynamic replay's held-out gap that closes: whether a lower floor lets a model of the right
 structure close more (about six minutes of CPU per twenty-minute record).
 
+With ``--rescore``, each effect's record is analysed blind (the workflow as it is) and its
+starting and final models are scored with the plant replay on the held-out part, as fitted and
+with their Coulomb forces refitted with the plant replay (:func:`plant_rescored`): whether the
+workflow's own fit, replayed with the links' swing, closes more of the lower floor's gap.
+
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
 the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
 core); ``--seed 31 --seeds 2 --effects backlash --analyse`` (four analyses, 18 minutes);
@@ -298,6 +303,68 @@ def dynamic_oracle(effect: str, seed: int, duration: float, size_factor: float =
             "fitted": values, "identified_coulomb_force": identified.tolist(), "replays": replays}
 
 
+def with_refined_friction(model, signals, split, robot, max_evaluations: int = 200):
+    """``model`` with its Coulomb forces refitted with the plant replay on the fit part: Powell's
+    method over one factor per joint (0 to 3 times the force identified), at most ``max_evaluations``
+    replays of the fit part, minimising its joint residual, each joint over its spread under
+    ``model``, the constant offsets profiled out. Open loop, the plant replay leaves a link stuck
+    where its dry friction holds it, so a force a few per cent off, which the quasi-static replay
+    hardly shows, costs it much. Returns the model and the replays it took."""
+    from scipy.optimize import minimize
+
+    head = signals.head(int(np.flatnonzero(split.fit)[-1]) + 1)
+    fit = split.fit[:len(head)]
+    friction = model.params.effect("coulomb_friction")
+    forces = np.asarray(friction.force, dtype=float)
+
+    def build(x):
+        scaled = np.r_[np.asarray(x, dtype=float) * forces[:3], forces[3:]]
+        return model.with_effect(friction.replace(force=scaled))
+
+    def fit_residual(m):
+        r = (head.truth - dynamic_joints(m.params, m.offsets, head, robot))[fit]
+        return r - r.mean(axis=0)
+
+    spread = np.maximum(np.std(fit_residual(model), axis=0), 1e-12)
+    replays = 0
+
+    def objective(x):
+        nonlocal replays
+        replays += 1
+        return float(np.sum(np.square(fit_residual(build(x)) / spread)))
+
+    solution = minimize(objective, np.ones(3), method="Powell", bounds=[(0.0, 3.0)] * 3,
+                        options={"maxfev": int(max_evaluations), "xtol": 1e-3, "ftol": 1e-7})
+    return build(solution.x), replays
+
+
+def plant_rescored(effect: str, seed: int, duration: float, size_factor: float = 1.0,
+                   max_evaluations: int = 200) -> dict:
+    """The blind analysis of ``effect``'s generated record (the workflow as it is: quasi-static
+    replay, thirty backfit rounds), its starting and final models then scored with the plant replay
+    on the held-out part, as they are and with their Coulomb forces refitted with it
+    (:func:`with_refined_friction`, at most ``max_evaluations`` replays each). Returns the names, the workflow's shrink, and the plant
+    replay's held-out gaps (pooled, deg and mm) and shrinks: the final model as fitted over the
+    starting model as identified, and each refined over the starting model refined."""
+    from kinematics import RavenII
+    from studies.common.discrepancy_runs import generate_measured, read_measured, run_on_raven_dataset, write_measured
+
+    generated, _ = generate_measured((effect,), seed, duration, size_factor=size_factor)
+    with tempfile.TemporaryDirectory() as folder:
+        dataset = read_measured(write_measured(generated, folder))
+    result, signals, split = run_on_raven_dataset(dataset)
+    robot = RavenII(signals.arm, check_limits=False)
+    gaps, replays = {}, 0
+    for name, model in (("start", result.model_before), ("final", result.model_after)):
+        gaps[name] = pooled(dynamic_held_out_gap(model.params, model.offsets, signals, split, robot))
+        refined, used = with_refined_friction(model, signals, split, robot, max_evaluations)
+        gaps[f"{name} refined"] = pooled(dynamic_held_out_gap(refined.params, refined.offsets, signals, split, robot))
+        replays += used
+    return {"named_effects": list(result.named_effects), "shrink": float(result.shrink), "plant_gaps": gaps,
+            "plant_shrink": 1.0 - gaps["final"] / gaps["start"],
+            "plant_shrink_refined": 1.0 - gaps["final refined"] / gaps["start refined"], "replays": replays}
+
+
 def pooled(rms: np.ndarray) -> float:
     """Pooled RMS (deg and mm) of per-joint RMS values in SI (the workflow's pooled gap)."""
     return float(np.sqrt(np.mean(np.square(np.asarray(rms) * TO_REPORT))))
@@ -389,6 +456,8 @@ def main(argv: list[str] | None = None) -> dict:
                         help="analyse each effect's record with the workflow's replay and with motor-side inertial loads")
     parser.add_argument("--dynamic", action="store_true",
                         help="also replay with the links' swing on their cables followed (the simulator's plant)")
+    parser.add_argument("--rescore", action="store_true",
+                        help="analyse each effect's record blind and score its models with the plant replay")
     parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
     args = parser.parse_args(argv)
 
@@ -445,6 +514,15 @@ def main(argv: list[str] | None = None) -> dict:
                           f"{_numbers(np.asarray(fitted['fitted']['half_width']) * TO_REPORT)}; held-out gap "
                           f"{_numbers(np.asarray(fitted['gap_after']) * TO_REPORT)}; closes "
                           f"{100 * fitted['shrink']:.1f} % of the {name}'s gap", flush=True)
+            if args.rescore:
+                run["effects"][effect]["rescored"] = scored = plant_rescored(effect, seed, args.duration,
+                                                                             args.size_factor)
+                g = scored["plant_gaps"]
+                print(f"    {effect} analysed blind: named {', '.join(scored['named_effects']) or 'nothing'}, shrink "
+                      f"{100 * scored['shrink']:.1f} %; scored with the plant replay: gap {g['start']:.5f} to "
+                      f"{g['final']:.5f} ({100 * scored['plant_shrink']:.1f} %), Coulomb forces refitted with it "
+                      f"{g['start refined']:.5f} to {g['final refined']:.5f} ({100 * scored['plant_shrink_refined']:.1f} %)",
+                      flush=True)
             if args.analyse:
                 run["effects"][effect]["analyses"] = analyses = analyse_both(effect, seed, args.duration,
                                                                              args.size_factor)
