@@ -210,26 +210,30 @@ DYNAMIC_VARIANTS = ("dynamic replay", "dynamic replay, generator's parameters")
 parameters, and the generator's own, in the plant that follows the links' swing."""
 
 
-def dynamic_joints(params, offsets, signals, robot) -> np.ndarray:
-    """(N, 3) joints (SI) of the plant replay of ``params`` along RAVEN-II ``signals``
-    (:func:`~simulation.engine.plant_replay.replay_links`): the links, started at rest from the
-    measured joints minus the registration ``offsets`` at the first sample and each re-homing,
-    plus ``offsets``."""
+def dynamic_joints(model, signals, robot) -> np.ndarray:
+    """(N, 3) joints (SI) of the plant replay of ``model`` (a
+    :class:`~simulation.discrepancy.replay.RavenModel`) along RAVEN-II ``signals``
+    (:func:`~simulation.engine.plant_replay.replay_links`): the links of its parameters, started at
+    rest from the measured joints minus its registration offsets (and per-homing offsets) at the
+    first sample and each re-homing, under the declared payload plus the model's undeclared one,
+    plus those offsets, as :meth:`RavenModel.replay` adds them."""
     from simulation.engine.plant_replay import replay_links
 
     payload = np.asarray(signals.payload_kg, dtype=float)
     if np.ptp(payload) > 0:
         raise ValueError("the plant replay builds the links' gravity for one payload; this record's declared payload "
                          f"changes from {payload.min():g} kg to {payload.max():g} kg")
-    offsets = np.asarray(offsets, dtype=float)
-    return replay_links(params, robot, signals.time, signals.drive, signals.truth - offsets, signals.restarts,
-                        float(payload[0])) + offsets
+    offsets = np.tile(np.asarray(model.offsets, dtype=float), (len(signals), 1))
+    for count, extra in (model.homing_offsets or {}).items():
+        offsets[signals.homing == count] += extra
+    return replay_links(model.params, robot, signals.time, signals.drive, signals.truth - offsets, signals.restarts,
+                        float(payload[0]) + float(model.payload_kg)) + offsets
 
 
-def dynamic_held_out_gap(params, offsets, signals, split, robot) -> np.ndarray:
+def dynamic_held_out_gap(model, signals, split, robot) -> np.ndarray:
     """Held-out residual RMS per joint (SI) of :func:`dynamic_joints`, its constant offsets fitted
     on the fit part as the workflow fits them."""
-    residual = signals.truth - dynamic_joints(params, offsets, signals, robot)
+    residual = signals.truth - dynamic_joints(model, signals, robot)
     held_out = residual[split.held_out] - residual[split.fit].mean(axis=0)
     return np.sqrt(np.mean(np.square(held_out), axis=0))
 
@@ -274,7 +278,7 @@ def dynamic_oracle(effect: str, seed: int, duration: float, size_factor: float =
     fit = split.fit[:len(head)]
 
     def fit_residual(m):
-        r = (head.truth - dynamic_joints(m.params, m.offsets, head, robot))[fit]
+        r = (head.truth - dynamic_joints(m, head, robot))[fit]
         return r - r.mean(axis=0)
 
     def build(x):
@@ -294,8 +298,8 @@ def dynamic_oracle(effect: str, seed: int, duration: float, size_factor: float =
     solution = minimize(objective, np.r_[np.clip(typical, lower, upper) / scale, np.ones(3)], method="Powell",
                         bounds=bounds, options={"maxfev": int(max_evaluations), "xtol": 1e-3, "ftol": 1e-7})
     fitted = build(solution.x)
-    before = dynamic_held_out_gap(model.params, model.offsets, signals, split, robot)
-    after = dynamic_held_out_gap(fitted.params, fitted.offsets, signals, split, robot)
+    before = dynamic_held_out_gap(model, signals, split, robot)
+    after = dynamic_held_out_gap(fitted, signals, split, robot)
     values = {k_: np.asarray(v, dtype=float).tolist()
               for k_, v in candidate.unpack(np.clip(solution.x[:k] * scale, lower, upper)).items()}
     values["coulomb_force"] = (np.maximum(solution.x[k:], 0.0) * identified).tolist()
@@ -322,7 +326,7 @@ def with_refined_friction(model, signals, split, robot, max_evaluations: int = 2
         return model.with_effect(friction.replace(force=scaled))
 
     def fit_residual(m):
-        r = (head.truth - dynamic_joints(m.params, m.offsets, head, robot))[fit]
+        r = (head.truth - dynamic_joints(m, head, robot))[fit]
         return r - r.mean(axis=0)
 
     spread = np.maximum(np.std(fit_residual(model), axis=0), 1e-12)
@@ -356,9 +360,9 @@ def plant_rescored(effect: str, seed: int, duration: float, size_factor: float =
     robot = RavenII(signals.arm, check_limits=False)
     gaps, replays = {}, 0
     for name, model in (("start", result.model_before), ("final", result.model_after)):
-        gaps[name] = pooled(dynamic_held_out_gap(model.params, model.offsets, signals, split, robot))
+        gaps[name] = pooled(dynamic_held_out_gap(model, signals, split, robot))
         refined, used = with_refined_friction(model, signals, split, robot, max_evaluations)
-        gaps[f"{name} refined"] = pooled(dynamic_held_out_gap(refined.params, refined.offsets, signals, split, robot))
+        gaps[f"{name} refined"] = pooled(dynamic_held_out_gap(refined, signals, split, robot))
         replays += used
     return {"named_effects": list(result.named_effects), "shrink": float(result.shrink), "plant_gaps": gaps,
             "plant_shrink": 1.0 - gaps["final"] / gaps["start"],
@@ -397,9 +401,11 @@ def starting_model_residuals(hidden, seed: int, duration: float, size_factor: fl
         replays[VARIANTS[-1]] = signals.with_derivatives(velocity=velocity, acceleration=acceleration)
         out.update({name: held_out_gap(model, replayed, split, robot) for name, replayed in replays.items()})
     if dynamic:
+        from simulation.discrepancy.replay import RavenModel
+
         identified, true = DYNAMIC_VARIANTS
-        out[identified] = dynamic_held_out_gap(model.params, model.offsets, signals, split, robot)
-        out[true] = dynamic_held_out_gap(generator, model.offsets, signals, split, robot)
+        out[identified] = dynamic_held_out_gap(model, signals, split, robot)
+        out[true] = dynamic_held_out_gap(RavenModel(generator, model.offsets), signals, split, robot)
     return out
 
 

@@ -220,3 +220,37 @@ def test_rescoring_scores_the_blind_analysis_models_with_the_plant_replay(monkey
     assert scored["plant_shrink"] == pytest.approx(1 - gaps["final"] / gaps["start"])
     assert scored["plant_shrink_refined"] == pytest.approx(1 - gaps["final refined"] / gaps["start refined"])
     assert scored["replays"] <= 2 * (10 + 12)
+
+
+def test_the_plant_replay_of_a_model_carries_its_per_homing_offsets_and_its_undeclared_payload():
+    # a per-homing offset shifts the joints of its homing and the positions the plant restarts from
+    # there: the same as the measured joints of that homing shifted the other way, without it
+    from dataclasses import replace
+
+    from kinematics import RavenII
+    from simulation.discrepancy.replay import RavenModel
+    from simulation.discrepancy.signals import RAVEN_JOINTS, RAVEN_UNITS, MeasuredSignals
+    from simulation.identification import nominal_parameters
+    from studies.discrepancy_floor import dynamic_joints
+
+    n = 200
+    time = np.arange(n) * 1e-2
+    truth = np.tile([0.9, 1.6, 0.4], (n, 1)) + 1e-3 * np.sin(time)[:, None]
+    homing = np.r_[np.zeros(n // 2, dtype=int), np.ones(n - n // 2, dtype=int)]
+    signals = MeasuredSignals(time=time, truth=truth, reported=truth, drive=truth * 1.01, torque=np.zeros((n, 3)),
+                              payload_kg=np.zeros(n), homing=homing, joint_names=RAVEN_JOINTS, units=RAVEN_UNITS,
+                              kind="raven", tool_joints=np.zeros((n, 3)))
+    robot = RavenII("left", check_limits=False)
+    extra = np.array([2e-3, -1e-3, 5e-4])
+    offsets = np.array([1e-3, 0.0, 0.0])
+    model = RavenModel(nominal_parameters("left"), offsets, homing_offsets={1: extra})
+    shifted = replace(signals, truth=truth - np.where(homing[:, None] == 1, extra, 0.0), travel=None,
+                      loaded_travel=None)
+    plain = RavenModel(nominal_parameters("left"), offsets)
+    expected = dynamic_joints(plain, shifted, robot) + np.where(homing[:, None] == 1, extra, 0.0)
+    np.testing.assert_allclose(dynamic_joints(model, signals, robot), expected, rtol=0, atol=1e-12)
+    # an undeclared payload loads the links as a declared one does
+    declared = replace(signals, payload_kg=np.full(n, 0.5), travel=None, loaded_travel=None)
+    np.testing.assert_array_equal(dynamic_joints(plain.with_payload(0.5), signals, robot),
+                                  dynamic_joints(plain, declared, robot))
+    assert not np.allclose(dynamic_joints(plain.with_payload(0.5), signals, robot), dynamic_joints(plain, signals, robot))
