@@ -17,8 +17,8 @@ and at every restart (a re-homing).
 
 A diagnostic of the quasi-static replay's floor (``studies/discrepancy_floor.py --dynamic``), not
 the workflow's replay: one replay of a twenty-minute record integrates 2.4 million sub-steps, about
-a second on one core, where the quasi-static replay takes milliseconds and a candidate's fit replays
-thousands of times. The motors' own dynamics and friction, and the sensors, are not replayed: the
+a second of CPU, where the quasi-static replay takes 7 ms to 10 ms (``python
+benchmarks/bench_plant_replay.py``) and a candidate's fit replays thousands of times. The motors' own dynamics and friction, and the sensors, are not replayed: the
 motor positions are taken as logged, and the replay returns the links' true positions.
 """
 
