@@ -238,6 +238,43 @@ def dynamic_held_out_gap(model, signals, split, robot) -> np.ndarray:
     return np.sqrt(np.mean(np.square(held_out), axis=0))
 
 
+def plant_fit(model, build, start, bounds, signals, split, robot, max_evaluations: int) -> tuple[np.ndarray, int]:
+    """Powell's method on ``build(x)`` (a model of the vector ``x``, from ``start`` within ``bounds``),
+    at most ``max_evaluations`` plant replays of the fit part, minimising its joint residual, each
+    joint over its spread under ``model``, the constant offsets profiled out. Returns the best
+    ``x`` and the replays it took."""
+    from scipy.optimize import minimize
+
+    head = signals.head(int(np.flatnonzero(split.fit)[-1]) + 1)
+    fit = split.fit[:len(head)]
+
+    def fit_residual(m):
+        r = (head.truth - dynamic_joints(m, head, robot))[fit]
+        return r - r.mean(axis=0)
+
+    spread = np.maximum(np.std(fit_residual(model), axis=0), 1e-12)
+    replays = 0
+
+    def objective(x):
+        nonlocal replays
+        replays += 1
+        return float(np.sum(np.square(fit_residual(build(np.asarray(x, dtype=float))) / spread)))
+
+    solution = minimize(objective, start, method="Powell", bounds=bounds,
+                        options={"maxfev": int(max_evaluations), "xtol": 1e-3, "ftol": 1e-7})
+    return np.asarray(solution.x, dtype=float), replays
+
+
+def generated_record(hidden, seed: int, duration: float, size_factor: float = 1.0):
+    """The generated record of ``hidden`` written and read as the blind analysis reads its file, and
+    the generator's parameters."""
+    from studies.common.discrepancy_runs import generate_measured, read_measured, write_measured
+
+    generated, generator = generate_measured(hidden, seed, duration, size_factor=size_factor)
+    with tempfile.TemporaryDirectory() as folder:
+        return read_measured(write_measured(generated, folder)), generator
+
+
 DYNAMIC_FITS = ("backlash",)
 """Effects :func:`dynamic_oracle` fits with the dynamic replay: those of the library whose candidate
 changes only what the plant integrates."""
@@ -258,51 +295,32 @@ def dynamic_oracle(effect: str, seed: int, duration: float, size_factor: float =
     (SI) before and after, the shrink (pooled, deg and mm), the fitted values (SI) and the replays
     it took.
     """
-    from scipy.optimize import minimize
-
-    from studies.common.discrepancy_runs import (
-        generate_measured, raven_library, read_measured, starting_model_on, write_measured)
+    from studies.common.discrepancy_runs import raven_library, starting_model_on
 
     if effect not in DYNAMIC_FITS:
         raise ValueError(f"the dynamic oracle fits {', '.join(DYNAMIC_FITS)}, not {effect!r}")
-    generated, _ = generate_measured((effect,), seed, duration, size_factor=size_factor)
-    with tempfile.TemporaryDirectory() as folder:
-        dataset = read_measured(write_measured(generated, folder))
+    dataset, _ = generated_record((effect,), seed, duration, size_factor)
     signals, split, robot, model = starting_model_on(dataset)
     (candidate,) = raven_library(signals, (effect,))
     lower, upper, scale, typical = candidate.bounds()
     friction = model.params.effect("coulomb_friction")
     identified = np.asarray(friction.force[:3], dtype=float)
     k = candidate.n_parameters
-    head = signals.head(int(np.flatnonzero(split.fit)[-1]) + 1)
-    fit = split.fit[:len(head)]
-
-    def fit_residual(m):
-        r = (head.truth - dynamic_joints(m, head, robot))[fit]
-        return r - r.mean(axis=0)
 
     def build(x):
         with_it = candidate.apply(model, np.clip(x[:k] * scale, lower, upper))
         forces = np.r_[np.maximum(x[k:], 0.0) * identified, np.asarray(friction.force, dtype=float)[3:]]
         return with_it.with_effect(with_it.params.effect("coulomb_friction").replace(force=forces))
 
-    spread = np.maximum(np.std(fit_residual(model), axis=0), 1e-12)
-    replays = 0
-
-    def objective(x):
-        nonlocal replays
-        replays += 1
-        return float(np.sum(np.square(fit_residual(build(np.asarray(x))) / spread)))
-
     bounds = list(zip(lower / scale, upper / scale)) + [(0.0, 3.0)] * 3
-    solution = minimize(objective, np.r_[np.clip(typical, lower, upper) / scale, np.ones(3)], method="Powell",
-                        bounds=bounds, options={"maxfev": int(max_evaluations), "xtol": 1e-3, "ftol": 1e-7})
-    fitted = build(solution.x)
+    x, replays = plant_fit(model, build, np.r_[np.clip(typical, lower, upper) / scale, np.ones(3)], bounds,
+                           signals, split, robot, max_evaluations)
+    fitted = build(x)
     before = dynamic_held_out_gap(model, signals, split, robot)
     after = dynamic_held_out_gap(fitted, signals, split, robot)
-    values = {k_: np.asarray(v, dtype=float).tolist()
-              for k_, v in candidate.unpack(np.clip(solution.x[:k] * scale, lower, upper)).items()}
-    values["coulomb_force"] = (np.maximum(solution.x[k:], 0.0) * identified).tolist()
+    values = {name: np.asarray(v, dtype=float).tolist()
+              for name, v in candidate.unpack(np.clip(x[:k] * scale, lower, upper)).items()}
+    values["coulomb_force"] = (np.maximum(x[k:], 0.0) * identified).tolist()
     return {"gap_before": before.tolist(), "gap_after": after.tolist(), "shrink": 1.0 - pooled(after) / pooled(before),
             "fitted": values, "identified_coulomb_force": identified.tolist(), "replays": replays}
 
@@ -314,32 +332,14 @@ def with_refined_friction(model, signals, split, robot, max_evaluations: int = 2
     ``model``, the constant offsets profiled out. Open loop, the plant replay leaves a link stuck
     where its dry friction holds it, so a force a few per cent off, which the quasi-static replay
     hardly shows, costs it much. Returns the model and the replays it took."""
-    from scipy.optimize import minimize
-
-    head = signals.head(int(np.flatnonzero(split.fit)[-1]) + 1)
-    fit = split.fit[:len(head)]
     friction = model.params.effect("coulomb_friction")
     forces = np.asarray(friction.force, dtype=float)
 
     def build(x):
-        scaled = np.r_[np.asarray(x, dtype=float) * forces[:3], forces[3:]]
-        return model.with_effect(friction.replace(force=scaled))
+        return model.with_effect(friction.replace(force=np.r_[x * forces[:3], forces[3:]]))
 
-    def fit_residual(m):
-        r = (head.truth - dynamic_joints(m, head, robot))[fit]
-        return r - r.mean(axis=0)
-
-    spread = np.maximum(np.std(fit_residual(model), axis=0), 1e-12)
-    replays = 0
-
-    def objective(x):
-        nonlocal replays
-        replays += 1
-        return float(np.sum(np.square(fit_residual(build(x)) / spread)))
-
-    solution = minimize(objective, np.ones(3), method="Powell", bounds=[(0.0, 3.0)] * 3,
-                        options={"maxfev": int(max_evaluations), "xtol": 1e-3, "ftol": 1e-7})
-    return build(solution.x), replays
+    x, replays = plant_fit(model, build, np.ones(3), [(0.0, 3.0)] * 3, signals, split, robot, max_evaluations)
+    return build(x), replays
 
 
 def plant_rescored(effect: str, seed: int, duration: float, size_factor: float = 1.0,
@@ -351,11 +351,9 @@ def plant_rescored(effect: str, seed: int, duration: float, size_factor: float =
     replay's held-out gaps (pooled, deg and mm) and shrinks: the final model as fitted over the
     starting model as identified, and each refined over the starting model refined."""
     from kinematics import RavenII
-    from studies.common.discrepancy_runs import generate_measured, read_measured, run_on_raven_dataset, write_measured
+    from studies.common.discrepancy_runs import run_on_raven_dataset
 
-    generated, _ = generate_measured((effect,), seed, duration, size_factor=size_factor)
-    with tempfile.TemporaryDirectory() as folder:
-        dataset = read_measured(write_measured(generated, folder))
+    dataset, _ = generated_record((effect,), seed, duration, size_factor)
     result, signals, split = run_on_raven_dataset(dataset)
     robot = RavenII(signals.arm, check_limits=False)
     gaps, replays = {}, 0
@@ -382,12 +380,9 @@ def starting_model_residuals(hidden, seed: int, duration: float, size_factor: fl
     :data:`DYNAMIC_VARIANTS` do; also the held-out residual itself, the log rate and the encoders'
     floor of the generator."""
     from simulation.model.constants import RavenConstants
-    from studies.common.discrepancy_runs import (
-        generate_measured, held_out_gap, held_out_residual, read_measured, starting_model_on, write_measured)
+    from studies.common.discrepancy_runs import held_out_gap, held_out_residual, starting_model_on
 
-    generated, generator = generate_measured(hidden, seed, duration, size_factor=size_factor)
-    with tempfile.TemporaryDirectory() as folder:
-        dataset = read_measured(write_measured(generated, folder))
+    dataset, generator = generated_record(hidden, seed, duration, size_factor)
     signals, split, robot, model = starting_model_on(dataset)
     held_out = held_out_residual(model, signals, split, robot)
     out = {"rate_hz": 1.0 / float(np.median(np.diff(signals.time))), "sensor_floor": sensor_floor(generator),
@@ -416,16 +411,10 @@ def analyse_both(effect: str, seed: int, duration: float, size_factor: float = 1
     hidden, replayed alike)."""
     from simulation.discrepancy.signals import RAVEN_UNITS
     from simulation.model.constants import RavenConstants
-    from studies.common.discrepancy_runs import (
-        floor_bound, generate_measured, held_out_gap, read_measured, run_on_raven_dataset, starting_model_on,
-        write_measured)
+    from studies.common.discrepancy_runs import floor_bound, held_out_gap, run_on_raven_dataset, starting_model_on
 
-    def read(hidden, size):
-        generated, _ = generate_measured(hidden, seed, duration, size_factor=size)
-        with tempfile.TemporaryDirectory() as folder:
-            return read_measured(write_measured(generated, folder))
-
-    dataset, nothing = read((effect,), size_factor), read((), 1.0)
+    dataset, _ = generated_record((effect,), seed, duration, size_factor)
+    nothing, _ = generated_record((), seed, duration)
     coupling = RavenConstants(arm=dataset.arm).nominal_coupling()
 
     def motor_side(signals):
