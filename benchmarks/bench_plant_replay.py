@@ -8,7 +8,7 @@ its first half as the blind analysis does, and replays that model along the whol
 ``--repeats`` times each way: quasi-statically (:meth:`RavenModel.replay`, each time with its
 registration offsets moved by a nanoradian so that the series memo, which serves a candidate fit's
 repeated inputs, cannot answer it) and with the plant
-(:func:`studies.discrepancy_floor.dynamic_joints`, the links' swing followed). Prints the least
+(:func:`studies.common.plant_scoring.plant_joints`, the links' swing followed). Prints the least
 CPU seconds of each, their ratio (``ratio <plant / quasi-static>``) and the sub-steps per second
 of the plant. The first call of each is left out (numba loads or compiles the kernels then).
 """
@@ -37,7 +37,7 @@ def least_cpu(call, repeats: int) -> float:
 def main(argv=None) -> int:
     from studies.common.discrepancy_runs import (
         generate_measured, read_measured, record_length, starting_model_on, write_measured)
-    from studies.discrepancy_floor import dynamic_joints
+    from studies.common.plant_scoring import plant_joints
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=record_length, default=1200.0, help="record length (s)")
@@ -56,7 +56,7 @@ def main(argv=None) -> int:
         model.with_offsets(model.offsets + 1e-9 * shift[0]).replay(signals, robot)
 
     def plant():
-        dynamic_joints(model, signals, robot)
+        plant_joints(model, signals, robot)
 
     quasi_static()
     plant()

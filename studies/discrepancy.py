@@ -29,10 +29,15 @@ exactly the ``--measured`` analysis on that file. Only then, knowing the generat
 report the true parameters beside the fitted ones and the oracle: the generator's true structure
 fitted to the same fit part, whose held-out gap is what a model of the right structure closes, and
 the floor: the gap the starting model leaves on the same seed's record with nothing hidden, and the
-share of this record's gap above it (``floor_gap``, ``floor_bound``). An
+share of this record's gap above it (``floor_gap``, ``floor_bound``, both the quasi-static replay's). An
 effect of the starting structure cannot be hidden (the data would not change): ``--ablate NAME``
 instead generates with the full structure and analyses from the structure without NAME, with NAME
 among the candidates; that is an ablation, and its report says so.
+
+On RAVEN-II data the analysis ends by scoring its starting and final models with the plant replay,
+which follows the links' swing on their cables (:mod:`studies.common.plant_scoring`): where that
+applies the report's gaps and shrink are the plant's (``scored_by``), the workflow's quasi-static
+ones kept in ``quasi_static``, and the oracle is scored the same way.
 
 Every run writes ``DIR/report.json``, ``DIR/report.md`` and PNG plots, and exits 0 whenever the
 workflow ran, whatever it found; a mistake in the arguments or an unreadable input file gets one
@@ -51,11 +56,13 @@ from simulation.identification import NotIdentifiableError
 from simulation.engine.robot import LOG_RATE, TRUTH_RATE
 from studies.common.data_sources import is_dvrk_folder
 from studies.common.discrepancy_report import (
+    SCORED_BY_QUASI_STATIC,
     add_generator_knowledge,
     add_learned_comparison,
     file_digest,
     in_report_units,
     report_unit_names,
+    scored_gaps,
     write_report,
 )
 from studies.common.discrepancy_runs import (
@@ -81,6 +88,7 @@ from studies.common.discrepancy_runs import (
     short_record_note,
     write_measured,
 )
+from studies.common.plant_scoring import score_with_plant
 from studies.common.discrepancy_sweep import SWEEP_EFFECTS, read_sweeps, summarise_sweep, sweep
 from studies.common.runner import (
     StudyRun,
@@ -130,7 +138,11 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
             progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
-    Returns the result, signals and split. ``shown_path`` is the input's name in the report (where
+    The analysis's last step scores its starting and final models with the plant replay where that
+    applies (:func:`~studies.common.plant_scoring.score_with_plant`; the report's gaps and shrink are
+    then the plant's, the workflow's quasi-static ones kept beside them).
+
+    Returns the result, signals, split and plant score. ``shown_path`` is the input's name in the report (where
     the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
     records its own); ``max_rate`` (Hz) thins a faster log first; ``backfit_rounds`` caps the
     backfit's rounds instead of the workflow's default. The analysis reads ``path`` and nothing
@@ -156,8 +168,12 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     if dropped_rows:
         source["rows_dropped_invalid"] = int(dropped_rows)
         source["description"] += f", {dropped_rows} row{'s' if dropped_rows != 1 else ''} with impossible values left out"
-    write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s)
-    return result, signals, split
+    if result.named_effects:
+        say("scoring the starting and final models with the plant replay...")
+    plant = score_with_plant(result, signals, split)
+    write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s,
+                 plant=plant)
+    return result, signals, split, plant
 
 
 def main(argv=None) -> int:
@@ -221,6 +237,7 @@ def main(argv=None) -> int:
             study.publish()
             study.done()
             return 0
+        plant = None
         if args.hidden_effect is not None:
             say(f"generating {args.duration:.0f} s of motion with {', '.join(args.hidden_effect) or 'nothing'} hidden...")
             dataset, generator = generate_measured(args.hidden_effect, seed=args.seed, duration=args.duration,
@@ -228,10 +245,10 @@ def main(argv=None) -> int:
                                                    robot_options=log_rate_options(args.log_rate))
             path = write_measured(dataset, study.folder)
             del dataset
-            result, signals, split = analyse(path, study.folder, shown_path=study.final(path), progress=progress,
-                                             backfit_rounds=args.backfit_rounds)
+            result, signals, split, plant = analyse(path, study.folder, shown_path=study.final(path),
+                                                    progress=progress, backfit_rounds=args.backfit_rounds)
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result,
-                                    args.size_factor, args.log_rate)
+                                    args.size_factor, args.log_rate, plant, signals, split)
         elif args.ablate is not None:
             result, signals, split, generator = run_ablation(args.ablate, seed=args.seed, duration=args.duration,
                                                              folder=study.folder)
@@ -263,8 +280,9 @@ def main(argv=None) -> int:
                 raise UsageError(f"{args.measured} cannot be analysed{left_out}: {one_line(error)}") from error
             del flagged
             try:
-                result, signals, split = analyse(args.measured, study.folder, arm=args.arm, progress=progress,
-                                                 max_rate=args.max_rate, backfit_rounds=args.backfit_rounds)
+                result, signals, split, plant = analyse(args.measured, study.folder, arm=args.arm,
+                                                        progress=progress, max_rate=args.max_rate,
+                                                        backfit_rounds=args.backfit_rounds)
             except NotIdentifiableError as error:
                 raise UsageError(f"{args.measured} cannot be analysed: {one_line(error)}") from error
         study.publish()
@@ -275,13 +293,15 @@ def main(argv=None) -> int:
     drift_note = drift_record_note(signals)
     if drift_note is not None:
         print(f"note: {drift_note}", file=sys.stderr)
+    gap_before, gap_after, shrink, scored_by = scored_gaps(result, plant)
     print(f"named effects: {', '.join(result.named_effects) or 'none'}; unexplained: {result.unexplained}")
-    for name, b, a, u in zip(result.joint_names, in_report_units(result.gap_before, result.units),
-                             in_report_units(result.gap_after, result.units), units):
+    for name, b, a, u in zip(result.joint_names, in_report_units(gap_before, result.units),
+                             in_report_units(gap_after, result.units), units):
         print(f"  {name:12s} held-out gap {b:9.4f} -> {a:9.4f} {u}")
-    print(f"shrink (pooled, deg and mm): {100 * result.shrink:.1f} %   "
-          f"[{pooled_rmse(result.residual_before.joints, result.units):.4f} -> "
-          f"{pooled_rmse(result.residual_after.joints, result.units):.4f}]")
+    print(f"shrink (pooled, deg and mm; {scored_by}): {100 * shrink:.1f} %   "
+          f"[{pooled_rmse(gap_before[None, :], result.units):.4f} -> {pooled_rmse(gap_after[None, :], result.units):.4f}]")
+    if scored_by != SCORED_BY_QUASI_STATIC:
+        print(f"  the workflow's quasi-static replay: {100 * result.shrink:.1f} %")
     for sentence in result.signature:
         print(f"  unexplained: {sentence}")
     study.done()

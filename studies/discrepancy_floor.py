@@ -49,7 +49,9 @@ structure close more (about six minutes of CPU per twenty-minute record).
 With ``--rescore``, each effect's record is analysed blind (the workflow as it is) and its
 starting and final models are scored with the plant replay on the held-out part, as fitted and
 with their Coulomb forces refitted with the plant replay (:func:`plant_rescored`): whether the
-workflow's own fit, replayed with the links' swing, closes more of the lower floor's gap.
+workflow's own fit, replayed with the links' swing, closes more of the lower floor's gap. The
+refitted figures are what the blind analysis's last step reports
+(:func:`studies.common.plant_scoring.score_with_plant`) where it applies.
 
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
 the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
@@ -67,6 +69,7 @@ from pathlib import Path
 import numpy as np
 
 from studies.common.discrepancy_runs import DEFAULT_RECORD_S, record_length
+from studies.common.plant_scoring import plant_fit, plant_held_out_gap, with_plant_friction
 from studies.common.reporting import write_json
 from studies.common.runner import non_negative_int, positive_float, positive_int, script_parser
 
@@ -206,63 +209,8 @@ with the present sample, and the viscous and inertial loads from :func:`identifi
 
 
 DYNAMIC_VARIANTS = ("dynamic replay", "dynamic replay, generator's parameters")
-"""The replays of ``--dynamic`` (:func:`dynamic_held_out_gap`): the identified starting model's
+"""The replays of ``--dynamic`` (:func:`plant_held_out_gap`): the identified starting model's
 parameters, and the generator's own, in the plant that follows the links' swing."""
-
-
-def dynamic_joints(model, signals, robot) -> np.ndarray:
-    """(N, 3) joints (SI) of the plant replay of ``model`` (a
-    :class:`~simulation.discrepancy.replay.RavenModel`) along RAVEN-II ``signals``
-    (:func:`~simulation.engine.plant_replay.replay_links`): the links of its parameters, started at
-    rest from the measured joints minus its registration offsets (and per-homing offsets) at the
-    first sample and each re-homing, under the declared payload plus the model's undeclared one,
-    plus those offsets, as :meth:`RavenModel.replay` adds them."""
-    from simulation.engine.plant_replay import replay_links
-
-    payload = np.asarray(signals.payload_kg, dtype=float)
-    if np.ptp(payload) > 0:
-        raise ValueError("the plant replay builds the links' gravity for one payload; this record's declared payload "
-                         f"changes from {payload.min():g} kg to {payload.max():g} kg")
-    offsets = np.tile(np.asarray(model.offsets, dtype=float), (len(signals), 1))
-    for count, extra in (model.homing_offsets or {}).items():
-        offsets[signals.homing == count] += extra
-    return replay_links(model.params, robot, signals.time, signals.drive, signals.truth - offsets, signals.restarts,
-                        float(payload[0]) + float(model.payload_kg)) + offsets
-
-
-def dynamic_held_out_gap(model, signals, split, robot) -> np.ndarray:
-    """Held-out residual RMS per joint (SI) of :func:`dynamic_joints`, its constant offsets fitted
-    on the fit part as the workflow fits them."""
-    residual = signals.truth - dynamic_joints(model, signals, robot)
-    held_out = residual[split.held_out] - residual[split.fit].mean(axis=0)
-    return np.sqrt(np.mean(np.square(held_out), axis=0))
-
-
-def plant_fit(model, build, start, bounds, signals, split, robot, max_evaluations: int) -> tuple[np.ndarray, int]:
-    """Powell's method on ``build(x)`` (a model of the vector ``x``, from ``start`` within ``bounds``),
-    at most ``max_evaluations`` plant replays of the fit part, minimising its joint residual, each
-    joint over its spread under ``model``, the constant offsets profiled out. Returns the best
-    ``x`` and the replays it took."""
-    from scipy.optimize import minimize
-
-    head = signals.head(int(np.flatnonzero(split.fit)[-1]) + 1)
-    fit = split.fit[:len(head)]
-
-    def fit_residual(m):
-        r = (head.truth - dynamic_joints(m, head, robot))[fit]
-        return r - r.mean(axis=0)
-
-    spread = np.maximum(np.std(fit_residual(model), axis=0), 1e-12)
-    replays = 0
-
-    def objective(x):
-        nonlocal replays
-        replays += 1
-        return float(np.sum(np.square(fit_residual(build(np.asarray(x, dtype=float))) / spread)))
-
-    solution = minimize(objective, start, method="Powell", bounds=bounds,
-                        options={"maxfev": int(max_evaluations), "xtol": 1e-3, "ftol": 1e-7})
-    return np.asarray(solution.x, dtype=float), replays
 
 
 def generated_record(hidden, seed: int, duration: float, size_factor: float = 1.0):
@@ -316,8 +264,8 @@ def dynamic_oracle(effect: str, seed: int, duration: float, size_factor: float =
     x, replays = plant_fit(model, build, np.r_[np.clip(typical, lower, upper) / scale, np.ones(3)], bounds,
                            signals, split, robot, max_evaluations)
     fitted = build(x)
-    before = dynamic_held_out_gap(model, signals, split, robot)
-    after = dynamic_held_out_gap(fitted, signals, split, robot)
+    before = plant_held_out_gap(model, signals, split, robot)
+    after = plant_held_out_gap(fitted, signals, split, robot)
     values = {name: np.asarray(v, dtype=float).tolist()
               for name, v in candidate.unpack(np.clip(x[:k] * scale, lower, upper)).items()}
     values["coulomb_force"] = (np.maximum(x[k:], 0.0) * identified).tolist()
@@ -325,29 +273,12 @@ def dynamic_oracle(effect: str, seed: int, duration: float, size_factor: float =
             "fitted": values, "identified_coulomb_force": identified.tolist(), "replays": replays}
 
 
-def with_refined_friction(model, signals, split, robot, max_evaluations: int = 200):
-    """``model`` with its Coulomb forces refitted with the plant replay on the fit part: Powell's
-    method over one factor per joint (0 to 3 times the force identified), at most ``max_evaluations``
-    replays of the fit part, minimising its joint residual, each joint over its spread under
-    ``model``, the constant offsets profiled out. Open loop, the plant replay leaves a link stuck
-    where its dry friction holds it, so a force a few per cent off, which the quasi-static replay
-    hardly shows, costs it much. Returns the model and the replays it took."""
-    friction = model.params.effect("coulomb_friction")
-    forces = np.asarray(friction.force, dtype=float)
-
-    def build(x):
-        return model.with_effect(friction.replace(force=np.r_[x * forces[:3], forces[3:]]))
-
-    x, replays = plant_fit(model, build, np.ones(3), [(0.0, 3.0)] * 3, signals, split, robot, max_evaluations)
-    return build(x), replays
-
-
 def plant_rescored(effect: str, seed: int, duration: float, size_factor: float = 1.0,
                    max_evaluations: int = 200) -> dict:
     """The blind analysis of ``effect``'s generated record (the workflow as it is: quasi-static
     replay, thirty backfit rounds), its starting and final models then scored with the plant replay
     on the held-out part, as they are and with their Coulomb forces refitted with it
-    (:func:`with_refined_friction`, at most ``max_evaluations`` replays each). Returns the names, the workflow's shrink, and the plant
+    (:func:`with_plant_friction`, at most ``max_evaluations`` replays each). Returns the names, the workflow's shrink, and the plant
     replay's held-out gaps (pooled, deg and mm) and shrinks: the final model as fitted over the
     starting model as identified, and each refined over the starting model refined."""
     from kinematics import RavenII
@@ -358,9 +289,9 @@ def plant_rescored(effect: str, seed: int, duration: float, size_factor: float =
     robot = RavenII(signals.arm, check_limits=False)
     gaps, replays = {}, 0
     for name, model in (("start", result.model_before), ("final", result.model_after)):
-        gaps[name] = pooled(dynamic_held_out_gap(model, signals, split, robot))
-        refined, used = with_refined_friction(model, signals, split, robot, max_evaluations)
-        gaps[f"{name} refined"] = pooled(dynamic_held_out_gap(refined, signals, split, robot))
+        gaps[name] = pooled(plant_held_out_gap(model, signals, split, robot))
+        refined, _, used = with_plant_friction(model, signals, split, robot, max_evaluations)
+        gaps[f"{name} refined"] = pooled(plant_held_out_gap(refined, signals, split, robot))
         replays += used
     return {"named_effects": list(result.named_effects), "shrink": float(result.shrink), "plant_gaps": gaps,
             "plant_shrink": 1.0 - gaps["final"] / gaps["start"],
@@ -399,8 +330,8 @@ def starting_model_residuals(hidden, seed: int, duration: float, size_factor: fl
         from simulation.discrepancy.replay import RavenModel
 
         identified, true = DYNAMIC_VARIANTS
-        out[identified] = dynamic_held_out_gap(model, signals, split, robot)
-        out[true] = dynamic_held_out_gap(RavenModel(generator, model.offsets), signals, split, robot)
+        out[identified] = plant_held_out_gap(model, signals, split, robot)
+        out[true] = plant_held_out_gap(RavenModel(generator, model.offsets), signals, split, robot)
     return out
 
 

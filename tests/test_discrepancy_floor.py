@@ -12,7 +12,7 @@ import pytest
 from simulation.model.parameters import RavenParameters
 from studies.discrepancy_floor import (BANDS_HZ, DYNAMIC_VARIANTS, VARIANTS, band_rms, centred_acceleration,
                                        dynamic_oracle, identification_derivatives, main, motor_side_acceleration,
-                                       pooled, sensor_floor, white_band_rms, with_refined_friction)
+                                       pooled, sensor_floor, white_band_rms)
 
 
 @pytest.mark.parametrize("n", [1000, 1001])
@@ -162,28 +162,6 @@ def test_a_diagnostic_replay_receives_the_records_signals_before_any_identificat
     np.testing.assert_array_equal(signals.truth, dataset.targets)
 
 
-def test_the_plant_replay_recovers_dry_friction_forces_set_a_third_off():
-    # the generator's own parameters with its Coulomb forces 30 % high, 30 % low and 20 % high:
-    # refitted with the plant replay on the first half of a 20 s record, each comes back to within
-    # 3 % (0.1 %, 0.1 % and 0.6 % when measured)
-    from kinematics import RavenII
-    from simulation.discrepancy.replay import RavenModel
-    from simulation.discrepancy.signals import MeasuredSignals
-    from simulation.discrepancy.workflow import Split
-    from studies.common.discrepancy_runs import generate_measured
-
-    dataset, generator = generate_measured((), seed=0, duration=20.0)
-    signals = MeasuredSignals.from_dataset(dataset)
-    friction = generator.effect("coulomb_friction")
-    true = np.asarray(friction.force, dtype=float)
-    wrong = generator.with_effect(friction.replace(force=np.r_[true[:3] * [1.3, 0.7, 1.2], true[3:]]))
-    refined, replays = with_refined_friction(RavenModel(wrong, np.zeros(3)), signals, Split.by_time(signals),
-                                             RavenII(signals.arm, check_limits=False))
-    assert replays <= 200 + 12
-    np.testing.assert_allclose(refined.params.effect("coulomb_friction").force[:3], true[:3], rtol=0.03)
-    np.testing.assert_array_equal(refined.params.effect("coulomb_friction").force[3:], true[3:])
-
-
 def test_rescoring_scores_the_blind_analysis_models_with_the_plant_replay(monkeypatch):
     # the blind analysis stands in here by a result whose final model is the generator's own
     # (what a perfect analysis would give) and whose starting model lacks the hidden backlash
@@ -220,37 +198,3 @@ def test_rescoring_scores_the_blind_analysis_models_with_the_plant_replay(monkey
     assert scored["plant_shrink"] == pytest.approx(1 - gaps["final"] / gaps["start"])
     assert scored["plant_shrink_refined"] == pytest.approx(1 - gaps["final refined"] / gaps["start refined"])
     assert scored["replays"] <= 2 * (10 + 12)
-
-
-def test_the_plant_replay_of_a_model_carries_its_per_homing_offsets_and_its_undeclared_payload():
-    # a per-homing offset shifts the joints of its homing and the positions the plant restarts from
-    # there: the same as the measured joints of that homing shifted the other way, without it
-    from dataclasses import replace
-
-    from kinematics import RavenII
-    from simulation.discrepancy.replay import RavenModel
-    from simulation.discrepancy.signals import RAVEN_JOINTS, RAVEN_UNITS, MeasuredSignals
-    from simulation.identification import nominal_parameters
-    from studies.discrepancy_floor import dynamic_joints
-
-    n = 200
-    time = np.arange(n) * 1e-2
-    truth = np.tile([0.9, 1.6, 0.4], (n, 1)) + 1e-3 * np.sin(time)[:, None]
-    homing = np.r_[np.zeros(n // 2, dtype=int), np.ones(n - n // 2, dtype=int)]
-    signals = MeasuredSignals(time=time, truth=truth, reported=truth, drive=truth * 1.01, torque=np.zeros((n, 3)),
-                              payload_kg=np.zeros(n), homing=homing, joint_names=RAVEN_JOINTS, units=RAVEN_UNITS,
-                              kind="raven", tool_joints=np.zeros((n, 3)))
-    robot = RavenII("left", check_limits=False)
-    extra = np.array([2e-3, -1e-3, 5e-4])
-    offsets = np.array([1e-3, 0.0, 0.0])
-    model = RavenModel(nominal_parameters("left"), offsets, homing_offsets={1: extra})
-    shifted = replace(signals, truth=truth - np.where(homing[:, None] == 1, extra, 0.0), travel=None,
-                      loaded_travel=None)
-    plain = RavenModel(nominal_parameters("left"), offsets)
-    expected = dynamic_joints(plain, shifted, robot) + np.where(homing[:, None] == 1, extra, 0.0)
-    np.testing.assert_allclose(dynamic_joints(model, signals, robot), expected, rtol=0, atol=1e-12)
-    # an undeclared payload loads the links as a declared one does
-    declared = replace(signals, payload_kg=np.full(n, 0.5), travel=None, loaded_travel=None)
-    np.testing.assert_array_equal(dynamic_joints(plain.with_payload(0.5), signals, robot),
-                                  dynamic_joints(plain, declared, robot))
-    assert not np.allclose(dynamic_joints(plain.with_payload(0.5), signals, robot), dynamic_joints(plain, signals, robot))

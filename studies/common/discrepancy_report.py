@@ -223,18 +223,40 @@ def _controller_document(result: DiscrepancyResult) -> dict | None:
             "bic": [check.bic_before, check.bic_after], "units": "N m at the gearbox output"}
 
 
+SCORED_BY_QUASI_STATIC = "quasi-static replay"
+SCORED_BY_PLANT = "plant replay"
+
+
+def scored_gaps(result: DiscrepancyResult, plant=None) -> tuple[np.ndarray, np.ndarray, float, str]:
+    """The held-out gaps before and after (SI per joint), the shrink (pooled, deg and mm) and the
+    replay that scored them: the plant replay's where its score applies
+    (:class:`~studies.common.plant_scoring.PlantScore`), the workflow's quasi-static one otherwise."""
+    if plant is not None and plant.applies:
+        return np.asarray(plant.gap_before), np.asarray(plant.gap_after), float(plant.shrink), SCORED_BY_PLANT
+    return np.asarray(result.gap_before), np.asarray(result.gap_after), float(result.shrink), SCORED_BY_QUASI_STATIC
+
+
 def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
-                    starting_structure=STARTING_STRUCTURE, analysis: str = "blind") -> dict:
-    """``report.json``: what the analysis found, its starting point and library, the iterations."""
+                    starting_structure=STARTING_STRUCTURE, analysis: str = "blind", plant=None) -> dict:
+    """``report.json``: what the analysis found, its starting point and library, the iterations.
+
+    ``gap_before``, ``gap_after`` and ``shrink`` are scored by ``scored_by`` (:func:`scored_gaps`);
+    ``quasi_static`` keeps the workflow's own, and ``plant_replay`` the plant's score (None where
+    none was asked for, as on dVRK data and in an ablation)."""
+    gap_before, gap_after, shrink, scored_by = scored_gaps(result, plant)
     return {
         "analysis": analysis,
         "starting_structure": list(starting_structure),
         "library": list(result.library),
         "named_effects": list(result.named_effects),
         "unexplained": bool(result.unexplained),
-        "gap_before": [float(v) for v in result.gap_before],
-        "gap_after": [float(v) for v in result.gap_after],
-        "shrink": float(result.shrink),
+        "gap_before": [float(v) for v in gap_before],
+        "gap_after": [float(v) for v in gap_after],
+        "shrink": shrink,
+        "scored_by": scored_by,
+        "quasi_static": {"gap_before": [float(v) for v in result.gap_before],
+                         "gap_after": [float(v) for v in result.gap_after], "shrink": float(result.shrink)},
+        "plant_replay": None if plant is None else plant.document(),
         "torque_gap_before": None if result.torque_gap_before is None else [float(v) for v in result.torque_gap_before],
         "torque_gap_after": None if result.torque_gap_after is None else [float(v) for v in result.torque_gap_after],
         "equivalent": {k: list(v) for k, v in result.equivalent.items()},
@@ -251,8 +273,8 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "starting_parameters": structure_document(result),
         "units": list(result.units),
         "joints": list(result.joint_names),
-        "gap_before_report_units": in_report_units(result.gap_before, result.units),
-        "gap_after_report_units": in_report_units(result.gap_after, result.units),
+        "gap_before_report_units": in_report_units(gap_before, result.units),
+        "gap_after_report_units": in_report_units(gap_after, result.units),
         "report_units": report_unit_names(result.units),
         "iterations": [
             {"validation_gap": it.gap_before, "fit_gap": it.fit_gap_before, "bic": it.bic_before, "named": it.named,
@@ -364,11 +386,12 @@ def _drag_section(result: DiscrepancyResult, signals, split) -> list[str]:
 
 
 def write_report(result: DiscrepancyResult, signals, split, source: dict, out: Path, runtime_s: float,
-                 starting_structure=STARTING_STRUCTURE, analysis: str = "blind") -> list[Path]:
-    """Write ``report.json``, ``report.md`` and the plots of one workflow run in the folder ``out``."""
+                 starting_structure=STARTING_STRUCTURE, analysis: str = "blind", plant=None) -> list[Path]:
+    """Write ``report.json``, ``report.md`` and the plots of one workflow run in the folder ``out``;
+    ``plant`` is the plant replay's score of it, if one was asked for (:func:`report_document`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    document = report_document(result, source, runtime_s, starting_structure, analysis)
+    document = report_document(result, source, runtime_s, starting_structure, analysis, plant)
     note = short_record_note(signals)
     document["record_s"] = float(signals.time[-1] - signals.time[0])
     document["short_record"] = note
@@ -421,10 +444,15 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
                 document["controller"]["command_gap_after"]))
             + (f"; gravity model scale error fitted: {', '.join(f'{v:+.4f}' for v in result.controller.scale_error)}"
                if result.controller.named else "; nothing named")]),
-        f"- held-out gap shrink (pooled RMSE, deg and mm): {100 * result.shrink:.1f} %",
+        f"- held-out gap shrink (pooled RMSE, deg and mm): {100 * document['shrink']:.1f} %, scored by the "
+        f"{document['scored_by']}"
+        + ("" if document["scored_by"] == SCORED_BY_QUASI_STATIC else
+           f" (the workflow's quasi-static replay: {100 * result.shrink:.1f} %; each model's Coulomb forces "
+           f"refitted to the plant on the fit part, {plant.replays} replays)"),
+        *([] if plant is None or plant.applies else [f"- not scored by the plant replay: {plant.reason}"]),
         f"- run: {document['created']}, {runtime_s:.0f} s",
         "",
-        "## Held-out gap per joint (RMSE, measured minus model)",
+        f"## Held-out gap per joint (RMSE, measured minus model; {document['scored_by']})",
         "",
         markdown_table(["joint", "starting model", "with named effects"], rows),
         "",
@@ -488,10 +516,18 @@ TRUE_PARAMETER_COLUMNS = ["effect", "parameter", "joint", "fitted", "true", "uni
 
 
 def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, generator, path: Path,
-                            result: DiscrepancyResult, size_factor: float = 1.0, log_rate: float = LOG_RATE) -> dict:
+                            result: DiscrepancyResult, size_factor: float = 1.0, log_rate: float = LOG_RATE,
+                            plant=None, signals=None, split=None) -> dict:
     """After the blind analysis: add the hidden effect, the true parameters, the oracle (with the
     analysis's backfit cap) and the floor (:func:`~studies.common.discrepancy_runs.floor_gap`: the
-    gap the starting model leaves on the same seed's record with nothing hidden) to the report."""
+    gap the starting model leaves on the same seed's record with nothing hidden) to the report.
+
+    The oracle is scored as the analysis was: where ``plant`` (the analysis's plant score, on
+    ``signals`` and ``split``) applies, by the plant replay with its Coulomb forces refitted
+    (:func:`~studies.common.plant_scoring.score_oracle_with_plant`); its quasi-static score is kept
+    in ``oracle_quasi_static``. The floor is the quasi-static replay's."""
+    from studies.common.plant_scoring import score_oracle_with_plant
+
     report_path = Path(out) / "report.json"
     document = json.loads(report_path.read_text())
     fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds)
@@ -499,9 +535,13 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
     bound = floor_bound(floor, result.gap_before, result.units)
     to_report = report_scale(result.units)
     before = pooled_rmse(result.residual_before.joints, result.units)
-    oracle_after = float(np.sqrt(np.mean(np.square(fit.gap_after * to_report))))
-    oracle_shrink = float(1.0 - oracle_after / before) if before > 0 else 0.0
-    fraction = float(result.shrink / oracle_shrink) if oracle_shrink > 0 else None
+    quasi_after = float(np.sqrt(np.mean(np.square(fit.gap_after * to_report))))
+    quasi_shrink = float(1.0 - quasi_after / before) if before > 0 else 0.0
+    scored = None if plant is None else score_oracle_with_plant(fit, plant, signals, split)
+    oracle_gap, oracle_shrink = (np.asarray(fit.gap_after), quasi_shrink) if scored is None else scored
+    oracle_shrink = float(oracle_shrink)
+    _, gap_after, shrink, scored_by = scored_gaps(result, plant)
+    fraction = float(shrink / oracle_shrink) if oracle_shrink > 0 else None
     payload_kg = HIDDEN_PAYLOAD_KG * size_factor if "payload" in hidden else 0.0
     structure = list(generator.enabled_effects) + (["payload"] if payload_kg else [])
 
@@ -522,7 +562,7 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "log_rate_hz": log_rate,
         "generator_structure": structure,
         "true_parameters": to_jsonable({k: v for k, v in truth.items() if isinstance(v, dict)}),
-        "oracle_gap_after": [float(v) for v in fit.gap_after],
+        "oracle_gap_after": [float(v) for v in oracle_gap],
         "oracle_shrink": oracle_shrink,
         "oracle_fitted_parameters": to_jsonable(fit.fitted_parameters),
         "fraction_of_oracle_shrink": fraction,
@@ -534,11 +574,12 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "floor_gap": [float(v) for v in floor],
         "floor_bound": bound,
     })
+    document["oracle_quasi_static"] = {"gap_after": [float(v) for v in fit.gap_after], "shrink": quasi_shrink}
     write_json(report_path, document)
     units = report_unit_names(result.units)
     rows = [[name, f"{b:.4f} {u}", f"{a:.4f} {u}", f"{o:.4f} {u}"] for name, b, a, o, u in
-            zip(result.joint_names, in_report_units(result.gap_before, result.units), in_report_units(result.gap_after, result.units),
-                in_report_units(fit.gap_after, result.units), units)]
+            zip(result.joint_names, document["gap_before_report_units"], in_report_units(gap_after, result.units),
+                in_report_units(oracle_gap, result.units), units)]
     fitted_rows = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names, truth,
                                  result.parameter_bounds)
     oracle_rows = parameter_rows(fit.fitted_parameters, fit.parameter_units, result.joint_names, truth,
@@ -553,12 +594,15 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "",
         "The oracle fits the generator's true structure to the same fit part (the starting structure "
         "identified as above, then the hidden effects added with their parameters fitted, never given): its "
-        "held-out gap is what a model of the right structure closes.",
+        f"held-out gap is what a model of the right structure closes (scored by the {scored_by}, as the "
+        "analysis is).",
         "",
         markdown_table(["joint", "starting model", "with named effects", "oracle"], rows),
         "",
-        f"- shrink: workflow {100 * result.shrink:.1f} %, oracle {100 * oracle_shrink:.1f} %"
-        + (f"; the workflow reached {100 * fraction:.0f} % of the oracle's shrink" if fraction is not None else ""),
+        f"- shrink ({scored_by}): workflow {100 * shrink:.1f} %, oracle {100 * oracle_shrink:.1f} %"
+        + (f"; the workflow reached {100 * fraction:.0f} % of the oracle's shrink" if fraction is not None else "")
+        + ("" if scored is None else
+           f" (quasi-static replay: workflow {100 * result.shrink:.1f} %, oracle {100 * quasi_shrink:.1f} %)"),
         *([] if fit.residual_structure is None or result.residual_structure is None else [
             f"- repeatable structure of the residual left (largest share of one joint's variance): workflow "
             f"{largest_share(result.residual_structure):.0f} %, oracle {largest_share(fit.residual_structure):.0f} % "
@@ -569,8 +613,8 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
          "this motion" if not hidden else
          f"- floor: the same seed's record with nothing hidden leaves a held-out gap of "
          f"{pooled_rmse(np.asarray(floor)[None, :], result.units):.5f} (pooled, deg and mm) after the starting "
-         f"model, against {before:.5f} here: about {100 * bound:.1f} % of this gap is the most a model replayed "
-         "this way closes (`python studies/discrepancy_floor.py`)"),
+         f"model, against {before:.5f} here, both replayed quasi-statically: about {100 * bound:.1f} % of this "
+         "gap is the most a model replayed that way closes (`python studies/discrepancy_floor.py`)"),
         "",
         "Named effects, fitted beside true values:",
         "",

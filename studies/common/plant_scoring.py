@@ -1,0 +1,210 @@
+"""Scoring a RAVEN-II analysis with the plant replay: the links' swing on their cables followed.
+
+The workflow fits and chooses with the quasi-static replay (:meth:`RavenModel.replay`), which
+balances each cable's tension against the links' loads sample by sample and keeps no state of the
+links' vibration on their cables. On a record with nothing hidden that replay leaves a held-out
+residual about 1.7 times the encoders' own error (0.0034 against 0.0020, pooled deg and mm, seeds
+30-34, twenty minutes), and that floor caps the share of a small effect's gap any model replayed
+this way can show closed (backlash at its default size: 38 % to 58 %). The simulator's own plant
+driven by the logged motor coordinates (:func:`simulation.engine.plant_replay.replay_links`)
+leaves 0.0023 with the identified starting model (``python studies/discrepancy_floor.py
+--dynamic``).
+
+:func:`score_with_plant` is the blind analysis's last step: the starting model and the final one,
+both as the workflow left them, are each replayed with the plant after their Coulomb forces are
+refitted to the plant on the fit part (:func:`with_plant_friction`: open loop, a link sticks
+wherever its dry friction holds it, so a force a few per cent off, which the quasi-static replay
+hardly shows, costs the plant much), and scored on the held-out part. Nothing of it depends on
+what generated the record: it applies when the record and the final model are ones the plant can
+replay (:func:`plant_score_reason`), and then the report's gaps and shrink are the plant's, the
+quasi-static ones kept beside them.
+
+This module sits in the studies layer because it joins the discrepancy package, which imports
+nothing of the simulator's engine, to the engine's plant.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from simulation.engine.plant_replay import FOLLOWED_EFFECTS, replay_links
+from simulation.discrepancy.signals import RAVEN_UNITS, report_scale
+from studies.common.discrepancy_runs import LIBRARY
+
+PLANT_SCORED_EFFECTS = tuple(name for name in LIBRARY if name in FOLLOWED_EFFECTS)
+"""Candidates of the library a model may name and still be scored with the plant replay: those
+whose every change is to what the plant integrates (backlash, hysteresis, drift, the transmission
+error, capstan friction). The others act on the motors, whose positions the plant takes as logged
+(motor friction, the controller's gravity model), on the links' load through the identification
+(an undeclared payload) or on the sensors at each homing (homing offsets): the quasi-static replay
+scores a model that names one of them."""
+
+PLANT_FRICTION_EVALUATIONS = 200
+"""Plant replays of the fit part allowed for each model's Coulomb-force refit (Powell's method over
+one factor per joint; on twenty-minute records the refits took 116 to 142 replays for the two
+models together, ``python studies/discrepancy_floor.py --effects backlash --rescore``)."""
+
+FRICTION_FACTOR_RANGE = (0.0, 3.0)
+"""Range of each joint's factor on the Coulomb force the identification gave (the refit's bounds)."""
+
+
+def plant_joints(model, signals, robot) -> np.ndarray:
+    """(N, 3) joints (SI) of the plant replay of ``model`` (a
+    :class:`~simulation.discrepancy.replay.RavenModel`) along RAVEN-II ``signals``: the links of
+    its parameters, started at rest from the measured joints minus its registration offsets (and
+    per-homing offsets) at the first sample and each re-homing, under the declared payload plus
+    the model's undeclared one, plus those offsets, as :meth:`RavenModel.replay` adds them."""
+    payload = np.asarray(signals.payload_kg, dtype=float)
+    if np.ptp(payload) > 0:
+        raise ValueError("the plant replay builds the links' gravity for one payload; this record's declared payload "
+                         f"changes from {payload.min():g} kg to {payload.max():g} kg")
+    offsets = np.tile(np.asarray(model.offsets, dtype=float), (len(signals), 1))
+    for count, extra in (model.homing_offsets or {}).items():
+        offsets[signals.homing == count] += extra
+    return replay_links(model.params, robot, signals.time, signals.drive, signals.truth - offsets, signals.restarts,
+                        float(payload[0]) + float(model.payload_kg)) + offsets
+
+
+def plant_held_out_gap(model, signals, split, robot) -> np.ndarray:
+    """Held-out residual RMS per joint (SI) of :func:`plant_joints`, its constant offsets fitted on
+    the fit part as the workflow fits them."""
+    residual = signals.truth - plant_joints(model, signals, robot)
+    held_out = residual[split.held_out] - residual[split.fit].mean(axis=0)
+    return np.sqrt(np.mean(np.square(held_out), axis=0))
+
+
+def plant_fit(model, build, start, bounds, signals, split, robot, max_evaluations: int) -> tuple[np.ndarray, int]:
+    """Powell's method on ``build(x)`` (a model of the vector ``x``, from ``start`` within ``bounds``),
+    at most ``max_evaluations`` plant replays of the fit part, minimising its joint residual, each
+    joint over its spread under ``model``, the constant offsets profiled out. Returns the best
+    ``x`` and the replays it took."""
+    from scipy.optimize import minimize
+
+    head = signals.head(int(np.flatnonzero(split.fit)[-1]) + 1)
+    fit = split.fit[:len(head)]
+
+    def fit_residual(m):
+        r = (head.truth - plant_joints(m, head, robot))[fit]
+        return r - r.mean(axis=0)
+
+    spread = np.maximum(np.std(fit_residual(model), axis=0), 1e-12)
+    replays = 0
+
+    def objective(x):
+        nonlocal replays
+        replays += 1
+        return float(np.sum(np.square(fit_residual(build(np.asarray(x, dtype=float))) / spread)))
+
+    solution = minimize(objective, start, method="Powell", bounds=bounds,
+                        options={"maxfev": int(max_evaluations), "xtol": 1e-3, "ftol": 1e-7})
+    return np.asarray(solution.x, dtype=float), replays
+
+
+def with_plant_friction(model, signals, split, robot, max_evaluations: int = PLANT_FRICTION_EVALUATIONS):
+    """``model`` with its positioning joints' Coulomb forces refitted with the plant replay on the
+    fit part (:func:`plant_fit` over one factor per joint in :data:`FRICTION_FACTOR_RANGE`, from 1).
+    Returns the model, the factors and the replays it took."""
+    friction = model.params.effect("coulomb_friction")
+    forces = np.asarray(friction.force, dtype=float)
+
+    def build(x):
+        return model.with_effect(friction.replace(force=np.r_[x * forces[:3], forces[3:]]))
+
+    x, replays = plant_fit(model, build, np.ones(3), [FRICTION_FACTOR_RANGE] * 3, signals, split, robot,
+                           max_evaluations)
+    return build(x), x, replays
+
+
+@dataclass(frozen=True)
+class PlantScore:
+    """The plant replay's verdict on one analysis.
+
+    ``applies`` False: ``reason`` says why (one sentence) and the other fields are None. Otherwise
+    ``gap_before`` and ``gap_after`` are the held-out residual RMS per joint (rad, rad, m) of the
+    starting and final models, each with its Coulomb forces refitted to the plant, ``shrink`` the
+    pooled shrink (deg and mm), ``friction_factors`` the refit's factor per joint for ``"before"``
+    and ``"after"``, ``replays`` the plant replays it took.
+    """
+
+    applies: bool
+    reason: str | None = None
+    gap_before: np.ndarray | None = None
+    gap_after: np.ndarray | None = None
+    shrink: float | None = None
+    friction_factors: dict | None = None
+    replays: int = 0
+
+    def document(self) -> dict:
+        """The score as plain JSON values (SI)."""
+        def listed(v):
+            return None if v is None else [float(x) for x in v]
+
+        return {"applies": self.applies, "reason": self.reason, "gap_before": listed(self.gap_before),
+                "gap_after": listed(self.gap_after), "shrink": self.shrink,
+                "friction_factors": None if self.friction_factors is None else
+                {k: listed(v) for k, v in self.friction_factors.items()}, "replays": self.replays}
+
+
+def pooled_gap(rms) -> float:
+    """Pooled RMS (deg and mm) of per-joint RMS values in SI (rad, rad, m)."""
+    return float(np.sqrt(np.mean(np.square(np.asarray(rms, dtype=float) * report_scale(RAVEN_UNITS)))))
+
+
+def plant_score_reason(result, signals) -> str | None:
+    """None when the plant replay can score ``result`` (a workflow result on RAVEN-II ``signals``),
+    else why not, in one sentence: nothing named (the two models are one), a named effect the plant
+    does not integrate (:data:`PLANT_SCORED_EFFECTS`), a re-homing (the plant would restart from a
+    state it cannot know: where dry friction holds each link), or a declared payload that changes."""
+    if not result.named_effects:
+        return "nothing was named: the starting and final models are the same"
+    outside = [name for name in result.named_effects if name not in PLANT_SCORED_EFFECTS]
+    if outside:
+        return (f"{', '.join(outside)} {'acts' if len(outside) == 1 else 'act'} outside what the plant replay "
+                "integrates")
+    restarts = int(np.count_nonzero(signals.restarts))
+    if restarts > 1:
+        return (f"the record has {restarts} homings: the plant would restart at each from links at rest, "
+                "not where their dry friction held them")
+    payload = np.asarray(signals.payload_kg, dtype=float)
+    if np.ptp(payload) > 0:
+        return "the declared payload changes along the record: the plant replay builds the links' gravity for one"
+    return None
+
+
+def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> PlantScore:
+    """The plant replay's held-out gaps and shrink of ``result`` (module docstring); a score that
+    does not apply when :func:`plant_score_reason` gives a reason."""
+    from kinematics import RavenII
+
+    reason = plant_score_reason(result, signals)
+    if reason is not None:
+        return PlantScore(applies=False, reason=reason)
+    robot = RavenII(signals.arm, check_limits=False)
+    gaps, factors, replays = {}, {}, 0
+    for key, model in (("before", result.model_before), ("after", result.model_after)):
+        refitted, factors[key], used = with_plant_friction(model, signals, split, robot, max_evaluations)
+        gaps[key] = plant_held_out_gap(refitted, signals, split, robot)
+        replays += used
+    before = pooled_gap(gaps["before"])
+    shrink = 1.0 - pooled_gap(gaps["after"]) / before if before > 0 else 0.0
+    return PlantScore(applies=True, gap_before=gaps["before"], gap_after=gaps["after"], shrink=float(shrink),
+                      friction_factors=factors, replays=replays)
+
+
+def score_oracle_with_plant(oracle_result, blind: PlantScore, signals, split,
+                            max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> tuple[np.ndarray, float] | None:
+    """The oracle's held-out gap per joint (SI) and shrink scored as ``blind`` scored the blind
+    analysis: its final model's Coulomb forces refitted to the plant, over the blind analysis's
+    plant-scored starting gap (the two share their starting model). None where ``blind`` does not
+    apply; the oracle is then scored by the quasi-static replay, as the analysis is."""
+    from kinematics import RavenII
+
+    if not blind.applies:
+        return None
+    robot = RavenII(signals.arm, check_limits=False)
+    refitted, _, _ = with_plant_friction(oracle_result.model_after, signals, split, robot, max_evaluations)
+    gap = plant_held_out_gap(refitted, signals, split, robot)
+    before = pooled_gap(blind.gap_before)
+    return gap, (1.0 - pooled_gap(gap) / before if before > 0 else 0.0)
