@@ -15,6 +15,7 @@ from __future__ import annotations
 import inspect
 import json
 import shutil
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -1156,8 +1157,11 @@ def test_rows_with_impossible_values_are_left_out_and_counted_in_the_report(five
     assert len(command.analysed_rows(flagged)) == len(flagged) - 1
     # the report's source says so (the analysis itself left out: its input is what is checked here)
     sources = []
-    monkeypatch.setattr(command, "analyse_measured", lambda path, **options: ("result", "signals", "split"))
-    monkeypatch.setattr(command, "write_report", lambda result, signals, split, source, *rest: sources.append(source))
+    stand_in = SimpleNamespace(named_effects=())
+    monkeypatch.setattr(command, "analyse_measured", lambda path, **options: (stand_in, "signals", "split"))
+    monkeypatch.setattr(command, "score_with_plant", lambda result, signals, split: None)
+    monkeypatch.setattr(command, "write_report",
+                        lambda result, signals, split, source, *rest, **options: sources.append(source))
     with pytest.warns(UserWarning, match="impossible values in 1 of"):
         command.analyse(path, tmp_path)
     command.analyse(five_second_log, tmp_path)

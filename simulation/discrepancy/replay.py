@@ -16,9 +16,9 @@ links' inertia enters through their measured accelerations. That vibration is no
 30 Hz log (at zero tension, about 3 Hz for the shoulder and the elbow and 15 Hz for the insertion
 axis, from the kinematics' mass matrix at one pose and the default cable stiffness), which is one
 reason the replay is not the simulator's equal: the simulator's plant driven by the logged motor
-positions (:mod:`simulation.engine.plant_replay`, a diagnostic about a hundred times slower) leaves a
-third less held-out residual with nothing hidden (``python studies/discrepancy_floor.py
---dynamic``). For generic data the nominal model is
+positions (:mod:`simulation.engine.plant_replay`, about a hundred times slower) leaves a third less
+held-out residual with nothing hidden (``python studies/discrepancy_floor.py --dynamic``), and
+scores the final models of a RAVEN-II analysis (:mod:`studies.common.plant_scoring`). For generic data the nominal model is
 ``joint = reported + offset``. The residual the workflow studies is measured minus predicted, for
 the joints and, when the data has them, for the motor torques, which is what tells effects that
 look alike in the joints apart.

@@ -15,10 +15,12 @@ therefore move at the rate those two samples give (the next sample is a motor re
 joint the replay predicts). The links start at rest at the given positions, at the first sample
 and at every restart (a re-homing).
 
-A diagnostic of the quasi-static replay's floor (``studies/discrepancy_floor.py --dynamic``), not
-the workflow's replay: one replay of a twenty-minute record integrates 2.4 million sub-steps, about
-a second of CPU, where the quasi-static replay takes 7 ms to 10 ms (``python
-benchmarks/bench_plant_replay.py``) and a candidate's fit replays thousands of times. The motors' own dynamics and friction, and the sensors, are not replayed: the
+It scores the blind analysis's final models (:mod:`studies.common.plant_scoring`, the analysis's
+last step) and measures the quasi-static replay's floor (``studies/discrepancy_floor.py
+--dynamic``); it is not the replay the workflow fits and chooses with: one replay of a
+twenty-minute record integrates 2.4 million sub-steps, about a second of CPU, where the
+quasi-static replay takes 7 ms to 10 ms (``python benchmarks/bench_plant_replay.py``) and a
+candidate's fit replays thousands of times. The motors' own dynamics and friction, and the sensors, are not replayed: the
 motor positions are taken as logged, and the replay returns the links' true positions.
 """
 
