@@ -90,6 +90,19 @@ def test_a_perfect_analysis_of_hidden_backlash_scored_by_the_plant_closes_most_o
     assert json.loads(json.dumps(score.document()))["gap_after"] == list(score.gap_after)
 
 
+def test_a_plant_replay_that_does_not_stay_finite_scores_nothing(monkeypatch):
+    import studies.common.plant_scoring as scoring
+
+    dataset, generator = generate_measured(("backlash",), seed=0, duration=5.0)
+    signals = MeasuredSignals.from_dataset(dataset)
+    model = RavenModel(generator, np.zeros(3))
+    result = SimpleNamespace(named_effects=("backlash",), model_before=model, model_after=model)
+    monkeypatch.setattr(scoring, "replay_links", lambda *args: np.full((len(args[2]), 3), np.nan))
+    score = score_with_plant(result, signals, Split.by_time(signals), max_evaluations=3)
+    assert not score.applies and score.reason == "the plant replay of the starting model did not stay finite"
+    assert score.shrink is None and score.gap_before is None
+
+
 def _stand_in_result():
     return SimpleNamespace(named_effects=("backlash",), unexplained=False, gap_before=np.array([2e-4, 1e-4, 3e-6]),
                            gap_after=np.array([1.5e-4, 1e-4, 3e-6]), shrink=0.2, library=LIBRARY, units=RAVEN_UNITS,

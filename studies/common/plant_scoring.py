@@ -175,7 +175,8 @@ def plant_score_reason(result, signals) -> str | None:
 
 def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> PlantScore:
     """The plant replay's held-out gaps and shrink of ``result`` (module docstring); a score that
-    does not apply when :func:`plant_score_reason` gives a reason."""
+    does not apply when :func:`plant_score_reason` gives a reason, nor when a model's plant replay
+    does not stay finite (then the report's figures are the quasi-static replay's, as elsewhere)."""
     from kinematics import RavenII
 
     reason = plant_score_reason(result, signals)
@@ -187,6 +188,11 @@ def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTI
         refitted, factors[key], used = with_plant_friction(model, signals, split, robot, max_evaluations)
         gaps[key] = plant_held_out_gap(refitted, signals, split, robot)
         replays += used
+    for key, gap in gaps.items():
+        if not np.all(np.isfinite(gap)):
+            return PlantScore(applies=False, replays=replays,
+                              reason=f"the plant replay of the {'starting' if key == 'before' else 'final'} model "
+                                     "did not stay finite")
     before = pooled_gap(gaps["before"])
     shrink = 1.0 - pooled_gap(gaps["after"]) / before if before > 0 else 0.0
     return PlantScore(applies=True, gap_before=gaps["before"], gap_after=gaps["after"], shrink=float(shrink),
