@@ -10,7 +10,8 @@ studies/discrepancy.py --hidden-effect NAME --seed S`` (or reads ``--measured FI
 positioning joints is multiplied by ``1 + k eps`` (``k`` drawn from -1, 0, 1 for each value, ``eps``
 = 2^-52, the spacing of doubles at 1, so a value moves by a unit or two in its last place:
 :func:`rounding_copy`), analyses the original and every copy
-blind, as ``--measured`` would, and prints each analysis's named effects and shrink and a verdict:
+blind, as ``--measured`` would (with its last step, the plant replay's score, where that applies),
+and prints each analysis's named effects and shrink and a verdict:
 **stable** when every analysis names the same effects in the same order, flags the same residual
 unexplained and their shrinks lie within ``--tolerance`` of each other, **moves with the rounding**
 otherwise: then the figure of one machine is one draw, and the range printed is what to quote.
@@ -68,12 +69,17 @@ def rounding_copy(dataset, seed: int):
 
 
 def analysed(path: str, backfit_rounds: int | None) -> dict:
-    """The blind analysis of the RAVEN-II record at ``path``: what it named and closed."""
+    """The blind analysis of the RAVEN-II record at ``path``: what it named and closed, the shrink as
+    ``studies/discrepancy.py`` reports it (scored by the plant replay where that applies,
+    :func:`~studies.common.plant_scoring.score_with_plant`) and the quasi-static replay's."""
+    from studies.common.discrepancy_report import scored_gaps
     from studies.common.discrepancy_runs import analyse_measured
+    from studies.common.plant_scoring import score_with_plant
 
-    result, _, _ = analyse_measured(path, backfit_rounds=backfit_rounds)
-    return {"named_effects": list(result.named_effects), "shrink": float(result.shrink),
-            "unexplained": bool(result.unexplained)}
+    result, signals, split = analyse_measured(path, backfit_rounds=backfit_rounds)
+    _, _, shrink, scored_by = scored_gaps(result, score_with_plant(result, signals, split))
+    return {"named_effects": list(result.named_effects), "shrink": shrink, "scored_by": scored_by,
+            "quasi_static_shrink": float(result.shrink), "unexplained": bool(result.unexplained)}
 
 
 def verdict(runs: list[dict], tolerance: float = DEFAULT_TOLERANCE) -> dict:
@@ -91,7 +97,9 @@ def verdict(runs: list[dict], tolerance: float = DEFAULT_TOLERANCE) -> dict:
 
 def _line(label: str, run: dict) -> str:
     named = ", ".join(run["named_effects"]) or "nothing"
-    return (f"{label}: named {named}; shrink {100 * run['shrink']:.1f} %"
+    scored = "" if run["shrink"] == run["quasi_static_shrink"] else (
+        f" ({run['scored_by']}; quasi-static {100 * run['quasi_static_shrink']:.1f} %)")
+    return (f"{label}: named {named}; shrink {100 * run['shrink']:.1f} %{scored}"
             + ("; unexplained" if run["unexplained"] else ""))
 
 
