@@ -281,9 +281,10 @@ class UKFJointEstimator(BaseEstimator):
         candidates, errors = [], []
         for factor in factors:
             candidate = nominal.with_effect(friction.replace(velocity_scale=friction.velocity_scale * factor))
-            # the coasting noise only acts on missing readings; it is chosen once, for the final model
+            # the coasting noise only acts on missing readings and the covariance scale only on the
+            # reported variances, not on the joints that score a trial: both are set once, for the final model
             trial = clone(self).set_params(base_parameters=candidate, tuning="none", verbose=0,
-                                           coast_noise_scale=1.0)
+                                           coast_noise_scale=1.0, covariance_calibration=False)
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
