@@ -16,7 +16,9 @@ data were made. ``--max-rate HZ`` keeps every k-th row of a faster RAVEN-II log 
 were set on 30 Hz logs, and its cost grows with the rows). ``--backfit-rounds N`` allows N rounds
 of re-identifying the starting structure around a candidate instead of thirty (``report.json``'s
 ``backfit_capped`` names the fits the cap cut short; with ``--hidden-effect`` the oracle gets the
-same cap). On the dVRK folder format the start is
+same cap). ``--max-effects N`` stops the search once it has named N effects instead of four, without
+the last iteration that checks for more (``report.json``'s ``search_capped``): on data known to hold
+at most N effects it names and fits the same at less cost. On the dVRK folder format the start is
 the dVRK's own nominal model (measured joints = reported joints plus offsets; wrist joints 4-6 by
 default) with the generic library.
 
@@ -135,7 +137,8 @@ def joint_numbers(text: str) -> tuple[int, ...]:
 
 
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
-            progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None):
+            progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None,
+            max_effects: int | None = None):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     The analysis's last step scores its starting and final models with the plant replay where that
@@ -145,7 +148,7 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     Returns the result, signals, split and plant score. ``shown_path`` is the input's name in the report (where
     the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
     records its own); ``max_rate`` (Hz) thins a faster log first; ``backfit_rounds`` caps the
-    backfit's rounds instead of the workflow's default. The analysis reads ``path`` and nothing
+    backfit's rounds and ``max_effects`` the effects named instead of the workflow's defaults. The analysis reads ``path`` and nothing
     else (:func:`~studies.common.discrepancy_runs.analyse_measured`); the report's source counts
     the rows it left out for holding impossible values.
     """
@@ -155,10 +158,10 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     say("identifying the starting model and screening the library...")
     if arm == "left":
         result, signals, split = analyse_measured(path, progress=progress, max_rate=max_rate,
-                                                  backfit_rounds=backfit_rounds)
+                                                  backfit_rounds=backfit_rounds, max_effects=max_effects)
     else:
         result, signals, split = run_on_raven_dataset(read_measured(path, arm, max_rate), progress=progress,
-                                                      settings=analysis_settings(backfit_rounds))
+                                                      settings=analysis_settings(backfit_rounds, max_effects))
     source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
               "description": f"RAVEN-II data {Path(shown_path or path).name}"}
     if max_rate is not None:
@@ -207,6 +210,10 @@ def main(argv=None) -> int:
                         help="--measured RAVEN-II data and --hidden-effect only: at most N backfit rounds instead of "
                              f"the workflow's {WorkflowSettings().backfit_rounds} (report.json's backfit_capped names "
                              "fits the cap cut short)")
+    parser.add_argument("--max-effects", type=positive_int, default=None, metavar="N",
+                        help="--measured RAVEN-II data and --hidden-effect only: name at most N effects instead of "
+                             f"{WorkflowSettings().max_iterations}, and stop there without checking for more "
+                             "(report.json's search_capped says whether it stopped at N)")
     parser.add_argument("--effects", type=parse_effect_list, default=None, metavar="NAMES",
                         help="--sweep only these hidden effects (comma-separated; default: every choice)")
     parser.add_argument("--joints", type=joint_numbers, default="4,5,6", help="dVRK joints (1-6) to study")
@@ -224,6 +231,9 @@ def main(argv=None) -> int:
         if args.backfit_rounds is not None and (args.hidden_effect is None and (
                 args.measured is None or is_dvrk_folder(args.measured))):
             parser.error("--backfit-rounds applies to --measured RAVEN-II data and --hidden-effect only")
+        if args.max_effects is not None and (args.hidden_effect is None and (
+                args.measured is None or is_dvrk_folder(args.measured))):
+            parser.error("--max-effects applies to --measured RAVEN-II data and --hidden-effect only")
         progress = not args.no_progress and sys.stderr.isatty()
         if args.merge_sweeps:
             runs, duration, size_factor, files = read_sweeps(args.merge_sweeps)
@@ -246,7 +256,8 @@ def main(argv=None) -> int:
             path = write_measured(dataset, study.folder)
             del dataset
             result, signals, split, plant = analyse(path, study.folder, shown_path=study.final(path),
-                                                    progress=progress, backfit_rounds=args.backfit_rounds)
+                                                    progress=progress, backfit_rounds=args.backfit_rounds,
+                                                    max_effects=args.max_effects)
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result,
                                     args.size_factor, args.log_rate, plant, signals, split)
         elif args.ablate is not None:
@@ -282,7 +293,8 @@ def main(argv=None) -> int:
             try:
                 result, signals, split, plant = analyse(args.measured, study.folder, arm=args.arm,
                                                         progress=progress, max_rate=args.max_rate,
-                                                        backfit_rounds=args.backfit_rounds)
+                                                        backfit_rounds=args.backfit_rounds,
+                                                        max_effects=args.max_effects)
             except NotIdentifiableError as error:
                 raise UsageError(f"{args.measured} cannot be analysed: {one_line(error)}") from error
         study.publish()

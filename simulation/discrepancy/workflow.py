@@ -64,7 +64,10 @@ class WorkflowSettings:
     unexplained_floor : a final validation gap above this (deg/mm pooled) is flagged unexplained
         when no candidate helps any more; set from the ground-truth encoders' resolution and the
         replay's own accuracy on data with nothing missing (about 0.01 on the virtual RAVEN-II).
-    max_iterations : most effects named in one run.
+    max_iterations : most effects named in one run (the controller's candidate, checked before the
+        transmission's, not counted; 0: the starting model alone). A run that names this many stops there without a last
+        iteration that would check for more (``DiscrepancyResult.search_capped``): on data known to
+        hold at most that many effects it gives the same names, fits and gaps at less cost.
     screen_top : how many screened candidates are fitted in full each iteration. The screen (a coarse
         scan of each candidate alone) ranks look-alikes of similar size in either order: a default
         backlash screened third behind capstan friction and hysteresis on one seed of five, and
@@ -142,6 +145,8 @@ class WorkflowSettings:
     bic_tie: float = 2.0
 
     def __post_init__(self):
+        if isinstance(self.max_iterations, bool) or not isinstance(self.max_iterations, int) or self.max_iterations < 0:
+            raise ValueError(f"max_iterations must be an integer of at least 0, got {self.max_iterations!r}")
         if isinstance(self.backfit_rounds, bool) or not isinstance(self.backfit_rounds, int) or self.backfit_rounds < 0:
             raise ValueError(f"backfit_rounds must be an integer of at least 0, got {self.backfit_rounds!r}")
         if not (np.isfinite(self.backfit_tolerance) and 0.0 <= self.backfit_tolerance < 1.0):
@@ -251,6 +256,9 @@ class DiscrepancyResult:
     whose backfit was still lowering the fit part's residual at its last allowed round
     (``backfit_rounds``, the cap of this run, None without a base identifier to backfit against):
     their fit, and the shrink, may stop short of where more rounds would take them.
+    ``search_capped`` is true when the search named ``max_effects`` effects (the run's
+    ``WorkflowSettings.max_iterations``) and stopped there: it did not check whether the data hold
+    more.
     """
 
     named_effects: tuple[str, ...]
@@ -278,6 +286,8 @@ class DiscrepancyResult:
     backfit_capped: tuple[str, ...] = ()
     backfit_rounds: int | None = None
     parameter_bounds: dict = field(default_factory=dict)
+    max_effects: int | None = None
+    search_capped: bool = False
 
 
 BOUND_TOLERANCE = 1e-6
@@ -802,4 +812,6 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         backfit_capped=tuple(s.name for it in iterations for s in it.scores if s.name == it.named and s.backfit_capped),
         backfit_rounds=settings.backfit_rounds if base is not None else None,
         parameter_bounds=parameter_bounds,
+        max_effects=settings.max_iterations,
+        search_capped=len(iterations) == settings.max_iterations and (not iterations or iterations[-1].named is not None),
     )

@@ -265,6 +265,8 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "residual_structure": structure_shares(result),
         "backfit_rounds": result.backfit_rounds,
         "backfit_capped": list(result.backfit_capped),
+        "max_effects": result.max_effects,
+        "search_capped": bool(result.search_capped),
         "controller": _controller_document(result),
         "fitted_parameters": to_jsonable(result.fitted_parameters),
         "parameter_units": to_jsonable(result.parameter_units),
@@ -430,6 +432,8 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         *[f"- the backfit of {name} was still lowering the fit part's residual at its last allowed round "
           f"(round {result.backfit_rounds}; `--backfit-rounds` allows more): its fit, and the shrink, may stop short"
           for name in result.backfit_capped],
+        *([f"- the search stopped after naming {result.max_effects} effect{'s' if result.max_effects != 1 else ''}, "
+           "its cap (`--max-effects`): it did not check whether the data hold more"] if result.search_capped else []),
         *([] if result.residual_structure is None else [
             "- repeatable structure of the residual the final model leaves (share of each joint's variance the "
             f"generic term library predicts on blocks it was not fitted to; flagged unexplained at "

@@ -346,23 +346,27 @@ def thinned(dataset, max_rate: float | None):
     return dataset.select(keep)
 
 
-def analysis_settings(backfit_rounds: int | None = None) -> WorkflowSettings:
-    """The default :class:`WorkflowSettings`, with at most ``backfit_rounds`` backfit rounds when given."""
-    return WorkflowSettings() if backfit_rounds is None else WorkflowSettings(backfit_rounds=backfit_rounds)
+def analysis_settings(backfit_rounds: int | None = None, max_effects: int | None = None) -> WorkflowSettings:
+    """The default :class:`WorkflowSettings`, with at most ``backfit_rounds`` backfit rounds and at
+    most ``max_effects`` named effects (``max_iterations``) when given."""
+    changes = {"backfit_rounds": backfit_rounds, "max_iterations": max_effects}
+    return WorkflowSettings(**{k: v for k, v in changes.items() if v is not None})
 
 
 def analyse_measured(path, *, progress: bool = False, max_rate: float | None = None,
-                     backfit_rounds: int | None = None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+                     backfit_rounds: int | None = None,
+                     max_effects: int | None = None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
     """The blind analysis of RAVEN-II data: all it knows is the file (or folder) at ``path``.
 
     Always the same :data:`STARTING_STRUCTURE`, identified on the first half of the record, the
     same :data:`LIBRARY` of candidates and the default :class:`WorkflowSettings`: no seed, no
     generator, no name of what the data may hide. ``max_rate`` (Hz) thins a faster log first
-    (:func:`thinned`); None analyses every row. ``backfit_rounds`` caps the backfit's rounds
-    instead of the default (:func:`analysis_settings`).
+    (:func:`thinned`); None analyses every row. ``backfit_rounds`` caps the backfit's rounds and
+    ``max_effects`` the effects named instead of the defaults (:func:`analysis_settings`; a search
+    that names ``max_effects`` stops without checking for more, ``search_capped``).
     """
     return run_on_raven_dataset(read_measured(path, max_rate=max_rate), progress=progress,
-                                settings=analysis_settings(backfit_rounds))
+                                settings=analysis_settings(backfit_rounds, max_effects))
 
 
 SHORT_RECORD_S = 60.0
@@ -486,21 +490,22 @@ def verdict(named, unexplained: bool) -> str:
 
 
 def run_hidden_effect(hidden=(), seed: int = 0, duration: float = 240.0, folder=None, size_factor: float = 1.0,
-                      backfit_rounds: int | None = None):
+                      backfit_rounds: int | None = None, max_effects: int | None = None):
     """Hide ``hidden`` in generated data, write it to ``folder/measured.parquet`` (a temporary folder
     by default) and analyse that file blind (:func:`analyse_measured`, with at most
-    ``backfit_rounds`` backfit rounds when given).
+    ``backfit_rounds`` backfit rounds and ``max_effects`` named effects when given).
 
     Returns the analysis (result, signals, split) and the generator's parameters.
     """
     import tempfile
 
     dataset, generator = generate_measured(hidden, seed, duration, size_factor=size_factor)
+    options = {"backfit_rounds": backfit_rounds, "max_effects": max_effects}
     if folder is None:
         with tempfile.TemporaryDirectory() as tmp:
-            result, signals, split = analyse_measured(write_measured(dataset, tmp), backfit_rounds=backfit_rounds)
+            result, signals, split = analyse_measured(write_measured(dataset, tmp), **options)
     else:
-        result, signals, split = analyse_measured(write_measured(dataset, folder), backfit_rounds=backfit_rounds)
+        result, signals, split = analyse_measured(write_measured(dataset, folder), **options)
     return result, signals, split, generator
 
 
