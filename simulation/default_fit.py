@@ -19,8 +19,10 @@ fits, with casadi (Opti + IPOPT), the parameters that set those levels:
 Each fit is a surrogate solved in casadi and checked by simulation: simulate with the current
 parameters, record the elastic cable tensions (which the loads set, nearly independent of the
 cable law), solve for the law that maps those tensions to the published errors, and simulate
-again until the simulated errors agree. Run ``python -m simulation.default_fit`` to reproduce the
-defaults of :mod:`simulation.model.effects`; it prints target against achieved. With
+again until the simulated errors agree. ``python -m simulation.default_fit`` runs the fit from the
+defaults of :mod:`simulation.model.effects` and prints target against achieved; those defaults are
+its result of 2026-11-24, and on the later simulator it moves the cable law by a few percent (the
+elbow's hardening by 15 %; the README says by how much and why the defaults were kept). With
 ``--out FILE.json`` it also writes the fitted parameter set (the virtual RAVEN-II's defaults with the
 fitted values in place), readable by :meth:`RavenParameters.from_json
 <simulation.model.parameters.RavenParameters.from_json>`.
