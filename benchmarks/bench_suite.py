@@ -141,9 +141,9 @@ def check_imports(repo: Path) -> None:
                            "editable mode or in a virtual environment without it")
 
 
-def run_suite(ref: str, workers: str, keep: bool) -> SuiteRun:
-    """Clone ``ref``, run the test command there with an empty numba cache, and measure it."""
-    commit = resolve(ref)
+def run_suite(ref: str, commit: str, workers: str, keep: bool) -> SuiteRun:
+    """Clone ``commit`` (named ``ref``), run the test command there with an empty numba cache, and
+    measure it."""
     folder = Path(tempfile.mkdtemp(prefix="raven-suite-"))
     try:
         repo = clone(commit, folder)
@@ -205,23 +205,25 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--top", type=positive_int, default=15, help="modules and calls listed (default 15)")
     parser.add_argument("--keep", action="store_true", help="keep each clone and its numba cache")
     args = parser.parse_args(argv)
-    for name in ("ref", "against"):
+    args.commits = {}
+    for name in ("against", "ref"):
         value = getattr(args, name)
         if value is not None:
             try:
-                resolve(value)
+                args.commits[value] = resolve(value)
             except ValueError as error:
                 parser.error(f"--{name}: {error}")
+    if args.against is not None and len(set(args.commits.values())) == 1:
+        parser.error(f"--against {args.against} is the same commit as --ref {args.ref}; compare two commits")
     return args
 
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    refs = [args.ref] if args.against is None else [args.against, args.ref]
-    runs: dict[str, list[SuiteRun]] = {ref: [] for ref in refs}
+    runs: dict[str, list[SuiteRun]] = {ref: [] for ref in args.commits}
     for _ in range(args.rounds):
-        for ref in refs:
-            run = run_suite(ref, args.workers, args.keep)
+        for ref, commit in args.commits.items():
+            run = run_suite(ref, commit, args.workers, args.keep)
             runs[ref].append(run)
             print(report(run, args.top), flush=True)
     means = {ref: sum(r.test_s for r in done) / len(done) for ref, done in runs.items()}

@@ -64,12 +64,18 @@ def test_modules_are_summed_largest_first_and_busy_is_cpu_over_the_cores_time():
 
 
 @pytest.mark.skipif(shutil.which("git") is None or not (ROOT / ".git").exists(), reason="needs git and a clone")
-def test_a_commit_that_does_not_exist_is_refused_in_one_line(capsys):
+def test_a_commit_that_does_not_exist_or_one_commit_twice_is_refused_in_one_line(capsys):
     with pytest.raises(SystemExit) as exit_info:
         bench_suite.main(["--ref", "no-such-commit-anywhere"])
     assert exit_info.value.code == 2
     error = capsys.readouterr().err.strip()
     assert len(error.splitlines()) == 1 and "'no-such-commit-anywhere' is not a commit" in error
+    # two names of one commit are no comparison
+    with pytest.raises(SystemExit) as exit_info:
+        bench_suite.main(["--ref", "HEAD", "--against", "HEAD"])
+    assert exit_info.value.code == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "is the same commit as --ref HEAD" in error
 
 
 @pytest.mark.parametrize("arguments, message", [(["--workers", "0"], "workers must be 'auto' or a positive number"),
