@@ -66,25 +66,38 @@ def test_a_link_let_go_swings_at_the_mode_of_its_inertia_and_cable(mode):
     assert np.max(np.abs(links - expected)) < 0.05 * np.max(np.abs(shape)), (mode, omega / (2 * np.pi))
 
 
-def test_a_link_hangs_still_where_the_quasi_static_replay_balances_its_cable_and_gravity():
+REGISTRATION = np.array([np.deg2rad(4.0), np.deg2rad(-6.0), 8e-3])
+"""Registration offsets (rad, rad, m) large enough that the links' gravity differs between the
+registered pose and the unregistered one."""
+
+
+@pytest.mark.parametrize("registered", [False, True])
+def test_a_link_hangs_still_where_the_quasi_static_replay_balances_its_cable_and_gravity(registered):
     # the workflow's replay puts the link where the cable's tension holds the gravity load at the
-    # measured joints; started there, at rest, with the motors still, the plant must not move
+    # measured joints, its registration offsets added; started there, at rest, with the motors
+    # still and the same offsets as the registration, the plant must not move
     params = nominal_parameters("left").only("cable_stretch", "gravity_stretch")
     time = np.arange(0.0, 0.5, 1e-3)
     n = time.size
     drive = still(params, n)
-    hanging = POSE.copy()
+    offsets = REGISTRATION if registered else np.zeros(3)
+    hanging = POSE + offsets
     for _ in range(20):
         truth = np.tile(hanging, (n, 1))
         signals = MeasuredSignals(time=time, truth=truth, reported=truth, drive=drive, torque=np.zeros((n, 3)),
                                   payload_kg=np.zeros(n), homing=np.zeros(n, dtype=int), joint_names=RAVEN_JOINTS,
                                   units=RAVEN_UNITS, kind="raven", tool_joints=np.zeros((n, 3)))
-        hanging = RavenModel(params, np.zeros(3)).replay(signals, ROBOT).joints[0]
-    stretch = POSE - hanging
+        hanging = RavenModel(params, offsets).replay(signals, ROBOT).joints[0]
+    stretch = POSE + offsets - hanging
     assert np.all(np.abs(stretch) > 1e-5), stretch  # gravity stretches every cable
-    links = replay_links(params, ROBOT, time, drive, np.tile(hanging, (n, 1)))
+    links = replay_links(params, ROBOT, time, drive, np.tile(hanging, (n, 1)), registration=np.tile(offsets, (n, 1)))
     # a gravity 5 % off would swing each link by about a tenth of its cable's stretch
     assert np.all(np.max(np.abs(links - hanging), axis=0) < 0.01 * np.abs(stretch))
+    if registered:
+        # the offsets added to the replayed joints instead: the links' gravity taken at the
+        # unregistered pose stretches the cables otherwise, and the links move
+        added = replay_links(params, ROBOT, time, drive, np.tile(hanging - offsets, (n, 1))) + offsets
+        assert np.max(np.abs(added - hanging)[:, :2]) > 0.05 * np.max(np.abs(stretch[:2]))
 
 
 def test_a_restart_starts_the_plant_again_at_rest_from_the_given_positions():
@@ -101,8 +114,43 @@ def test_a_restart_starts_the_plant_again_at_rest_from_the_given_positions():
     assert not np.allclose(links[250:], replay_links(params, ROBOT, time, drive, start)[250:])
 
 
+def test_what_a_restart_gets_wrong_is_forgotten_within_seconds_of_motion():
+    # restarted at rest 1 mrad and 0.1 mm off where the links were, while the motors move: the
+    # cables' damping and the links' slipping through their dry friction bring the links back onto
+    # the replay that ran through, to under a hundredth of that error three seconds later
+    params = nominal_parameters("left").only("cable_stretch", "gravity_stretch", "coulomb_friction", "viscous_friction")
+    params = params.with_effect(params.effect("cable_stretch").replace(stiffness=SOFT_CABLES))
+    time = np.arange(0.0, 5.0, 1e-3)
+    drive = motors_for(params, POSE)[None, :] + 0.05 * np.sin(np.pi * time)[:, None]
+    start = np.tile(POSE, (time.size, 1))
+    through = replay_links(params, ROBOT, time, drive, start)
+    error = np.array([1e-3, -1e-3, 1e-4])
+    restart = np.zeros(time.size, dtype=bool)
+    restart[[0, 1000]] = True
+    start[1000] = through[1000] + error
+    again = replay_links(params, ROBOT, time, drive, start, restart)
+    np.testing.assert_array_equal(again[:1000], through[:1000])
+    assert np.all(np.abs(again[1001] - through[1001]) > 0.5 * np.abs(error))
+    assert np.all(np.max(np.abs(again[4000:] - through[4000:]), axis=0) < 0.01 * np.abs(error))
+
+
+def test_a_registration_offset_moves_the_motors_and_the_links_hang_where_their_gravity_is():
+    # the registration enters on the motor side: the same as the motor coordinates shifted by the
+    # coupling's inverse times the offset (computed here from the arm's constants)
+    params = cables_only()
+    time = np.arange(0.0, 0.4, 1e-3)
+    drive = motors_for(params, POSE)[None, :] + 0.05 * np.sin(2 * np.pi * time)[:, None]
+    start = np.tile(POSE, (time.size, 1))
+    offset = np.array([np.deg2rad(2.0), np.deg2rad(-3.0), 4e-3])
+    registered = replay_links(params, ROBOT, time, drive, start, registration=np.tile(offset, (time.size, 1)))
+    shifted = replay_links(params, ROBOT, time, drive + motors_for(params, offset), start)
+    np.testing.assert_allclose(registered, shifted, rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize("change, message", [
     ("drive shape", r"drive must have shape \(100, 3\), got \(100, 2\)"),
+    ("registration shape", r"registration must have shape \(100, 3\), got \(3,\)"),
+    ("registration nan", "registration is not finite at sample 3"),
     ("start nan", "start is not finite at sample 7"),
     ("time order", "time must increase strictly; it does not at sample 50"),
     ("restart first", "restart must be 100 flags, the first set"),
@@ -114,9 +162,14 @@ def test_bad_input_is_refused_with_the_problem_named(change, message):
     params = cables_only()
     time = np.arange(0.0, 0.1, 1e-3)
     drive, start = still(params, time.size), np.tile(POSE, (time.size, 1))
-    restart, payload, substeps = None, 0.0, 2
+    restart, payload, substeps, registration = None, 0.0, 2, None
     if change == "drive shape":
         drive = drive[:, :2]
+    elif change == "registration shape":
+        registration = np.zeros(3)
+    elif change == "registration nan":
+        registration = np.zeros((time.size, 3))
+        registration[3, 2] = np.nan
     elif change == "start nan":
         start[7, 1] = np.nan
     elif change == "time order":
@@ -130,4 +183,4 @@ def test_bad_input_is_refused_with_the_problem_named(change, message):
     elif change == "substeps":
         substeps = 0
     with pytest.raises(ValueError, match=message):
-        replay_links(params, ROBOT, time, drive, start, restart, payload, substeps)
+        replay_links(params, ROBOT, time, drive, start, restart, payload, substeps, registration)

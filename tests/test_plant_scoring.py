@@ -14,6 +14,7 @@ from simulation.discrepancy.replay import RavenModel
 from simulation.discrepancy.signals import RAVEN_JOINTS, RAVEN_UNITS, MeasuredSignals
 from simulation.discrepancy.workflow import Split
 from simulation.identification import nominal_parameters
+from simulation.model.laws import coupling_matrix
 from studies.common.discrepancy_report import SCORED_BY_PLANT, SCORED_BY_QUASI_STATIC, report_document
 from studies.common.discrepancy_runs import LIBRARY, generate_measured
 from studies.common.plant_scoring import (PLANT_SCORED_EFFECTS, PlantScore, plant_joints, plant_score_reason,
@@ -30,15 +31,16 @@ def _signals(n=200, homings=1, payload=None):
 
 
 def test_the_plant_scores_the_library_effects_it_integrates_and_no_other():
-    assert PLANT_SCORED_EFFECTS == ("backlash", "hysteresis", "drift", "transmission_error", "capstan_friction")
+    assert PLANT_SCORED_EFFECTS == ("backlash", "hysteresis", "drift", "homing_offset", "registration_offset",
+                                    "transmission_error", "capstan_friction")
     assert set(PLANT_SCORED_EFFECTS) < set(LIBRARY)
 
 
 @pytest.mark.parametrize("named, homings, payload, reason", [
     ((), 1, None, "nothing was named"),
     (("backlash", "motor_friction"), 1, None, "motor_friction acts outside what the plant replay integrates"),
-    (("payload", "homing_offset"), 1, None, "payload, homing_offset act outside"),
-    (("hysteresis",), 2, None, "the record has 2 homings"),
+    (("payload", "motor_friction"), 1, None, "payload, motor_friction act outside"),
+    (("homing_offset", "gravity_model_error"), 2, None, "gravity_model_error acts outside"),
     (("drift",), 1, np.r_[np.zeros(100), np.full(100, 0.5)], "the declared payload changes"),
 ])
 def test_the_plant_scores_nothing_it_cannot_replay_and_says_why(named, homings, payload, reason):
@@ -50,8 +52,9 @@ def test_the_plant_scores_nothing_it_cannot_replay_and_says_why(named, homings, 
     assert score.gap_before is None and score.shrink is None
 
 
-def test_a_named_effect_the_plant_integrates_on_one_homing_is_scored():
+def test_a_named_effect_the_plant_integrates_is_scored_on_one_homing_or_more():
     assert plant_score_reason(SimpleNamespace(named_effects=("backlash", "capstan_friction")), _signals()) is None
+    assert plant_score_reason(SimpleNamespace(named_effects=("registration_offset",)), _signals(homings=2)) is None
 
 
 def test_the_plant_replay_recovers_dry_friction_forces_set_a_third_off():
@@ -97,7 +100,7 @@ def test_a_plant_replay_that_does_not_stay_finite_scores_nothing(monkeypatch):
     signals = MeasuredSignals.from_dataset(dataset)
     model = RavenModel(generator, np.zeros(3))
     result = SimpleNamespace(named_effects=("backlash",), model_before=model, model_after=model)
-    monkeypatch.setattr(scoring, "replay_links", lambda *args: np.full((len(args[2]), 3), np.nan))
+    monkeypatch.setattr(scoring, "replay_links", lambda *args, **kwargs: np.full((len(args[2]), 3), np.nan))
     score = score_with_plant(result, signals, Split.by_time(signals), max_evaluations=3)
     assert not score.applies and score.reason == "the plant replay of the starting model did not stay finite"
     assert score.shrink is None and score.gap_before is None
@@ -126,28 +129,35 @@ def test_the_report_gives_the_plant_replays_gaps_where_it_applies_and_keeps_the_
                                         "shrink": 0.2}
     assert document["plant_replay"]["applies"] is True and document["plant_replay"]["replays"] == 120
     # where it does not apply, the quasi-static replay's figures are the report's, and the reason is kept
-    skipped = PlantScore(applies=False, reason="the record has 2 homings")
+    skipped = PlantScore(applies=False, reason="motor_friction acts outside what the plant replay integrates")
     document = report_document(result, {"kind": "raven"}, 1.0, plant=skipped)
     assert document["scored_by"] == SCORED_BY_QUASI_STATIC and document["shrink"] == 0.2
     assert document["gap_after"] == document["quasi_static"]["gap_after"]
-    assert document["plant_replay"]["reason"] == "the record has 2 homings"
+    assert document["plant_replay"]["reason"] == "motor_friction acts outside what the plant replay integrates"
     assert report_document(result, {"kind": "dvrk"}, 1.0)["plant_replay"] is None
 
 
-def test_the_plant_replay_of_a_model_carries_its_per_homing_offsets_and_its_undeclared_payload():
-    # a per-homing offset shifts the joints of its homing and the positions the plant restarts from
-    # there: the same as the measured joints of that homing shifted the other way, without it
+def test_the_plant_replay_of_a_model_registers_its_offsets_on_the_motor_side_and_carries_its_payload():
+    # the constant and per-homing offsets move the motor coordinates, as RAVEN-II's registration at
+    # the hard stops does: the same as a model without offsets along motor coordinates shifted by
+    # the coupling's inverse (from the arm's constants) times the offsets of each sample
     signals = _signals(homings=2)
-    homing, truth, n = signals.homing, signals.truth, len(signals)
+    homing, n = signals.homing, len(signals)
     robot = RavenII("left", check_limits=False)
     extra = np.array([2e-3, -1e-3, 5e-4])
     offsets = np.array([1e-3, 0.0, 0.0])
-    model = RavenModel(nominal_parameters("left"), offsets, homing_offsets={1: extra})
-    shifted = replace(signals, truth=truth - np.where(homing[:, None] == 1, extra, 0.0), travel=None,
+    params = nominal_parameters("left")
+    model = RavenModel(params, offsets, homing_offsets={1: extra})
+    per_sample = offsets + np.where(homing[:, None] == 1, extra, 0.0)
+    coupling = coupling_matrix(*params.constants.cable_coupling)
+    shifted = replace(signals, drive=signals.drive + np.linalg.solve(coupling, per_sample.T).T, travel=None,
                       loaded_travel=None)
-    plain = RavenModel(nominal_parameters("left"), offsets)
-    expected = plant_joints(plain, shifted, robot) + np.where(homing[:, None] == 1, extra, 0.0)
+    expected = plant_joints(RavenModel(params, np.zeros(3)), shifted, robot)
     np.testing.assert_allclose(plant_joints(model, signals, robot), expected, rtol=0, atol=1e-12)
+    # each homing starts from the measured joints, whatever the offsets
+    starts = np.flatnonzero(signals.restarts)
+    np.testing.assert_array_equal(plant_joints(model, signals, robot)[starts], signals.truth[starts])
+    plain = RavenModel(params, offsets)
     # an undeclared payload loads the links as a declared one does
     declared = replace(signals, payload_kg=np.full(n, 0.5), travel=None, loaded_travel=None)
     np.testing.assert_array_equal(plant_joints(plain.with_payload(0.5), signals, robot),

@@ -121,7 +121,7 @@ def plant_link_series(time, drive, start, restart, table, flags, scalars, a_true
 
 
 def replay_links(params, robot, time, drive, start, restart=None, payload_kg: float = 0.0,
-                 substeps: int = 2) -> np.ndarray:
+                 substeps: int = 2, registration=None) -> np.ndarray:
     """(N, 3) link positions (rad, rad, m) the plant of ``params`` (a
     :class:`~simulation.model.parameters.RavenParameters`; only its :data:`FOLLOWED_EFFECTS`) gives
     along a log.
@@ -138,6 +138,14 @@ def replay_links(params, robot, time, drive, start, restart=None, payload_kg: fl
         each re-homing); the first sample alone by default.
     payload_kg : mass at the tool tip (kg).
     substeps : integration steps per 1 ms servo period (the simulator's two by default).
+    registration : (N, 3) offsets (rad, rad, m) of the joints the logged motor coordinates place,
+        from where the motors' registration at homing put their zero; None for none. They enter on
+        the motor side, where RAVEN-II registers (the motor encoders are zeroed at the hard stops):
+        the plant is driven by ``drive`` plus the coupling's inverse times ``registration``, so its
+        links, and the gravity and inertia evaluated at them, sit where the measured joints are,
+        not where the unregistered motor coordinates would put them. Adding such offsets to the
+        replayed joints instead evaluates the links' gravity at a pose off by the offsets, and the
+        cables' stretch under it with an error that changes with the pose.
 
     Raises
     ------
@@ -152,6 +160,8 @@ def replay_links(params, robot, time, drive, start, restart=None, payload_kg: fl
     if time.ndim != 1 or n < 2:
         raise ValueError(f"time must be one row of at least two sample times, got shape {time.shape}")
     arrays = {"drive": drive, "start": start}
+    if registration is not None:
+        arrays["registration"] = registration
     for name, value in arrays.items():
         value = np.ascontiguousarray(value, dtype=float)
         if value.shape != (n, 3):
@@ -177,5 +187,9 @@ def replay_links(params, robot, time, drive, start, restart=None, payload_kg: fl
         raise ValueError(f"substeps must be a positive whole number, got {substeps!r}")
     followed = params.only(*[name for name in FOLLOWED_EFFECTS if params.is_enabled(name)])
     tables = build_tables(followed, robot, float(payload_kg), int(substeps))
-    return plant_link_series(time, arrays["drive"], arrays["start"], restart, tables.table, tables.flags,
-                             tables.scalars, np.ascontiguousarray(tables.coupling_true), tables.gravity_plant)
+    coupling = np.ascontiguousarray(tables.coupling_true)
+    motors = arrays["drive"]
+    if registration is not None:
+        motors = np.ascontiguousarray(motors + np.linalg.solve(coupling, arrays["registration"].T).T)
+    return plant_link_series(time, motors, arrays["start"], restart, tables.table, tables.flags,
+                             tables.scalars, coupling, tables.gravity_plant)
