@@ -134,7 +134,7 @@ def test_what_a_restart_gets_wrong_is_forgotten_within_seconds_of_motion():
     assert np.all(np.max(np.abs(again[4000:] - through[4000:]), axis=0) < 0.01 * np.abs(error))
 
 
-def test_a_registration_offset_moves_the_motors_and_the_links_hang_where_their_gravity_is():
+def test_a_registration_offset_moves_the_motors_by_the_couplings_inverse():
     # the registration enters on the motor side: the same as the motor coordinates shifted by the
     # coupling's inverse times the offset (computed here from the arm's constants)
     params = cables_only()

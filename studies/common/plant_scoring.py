@@ -163,7 +163,7 @@ def plant_score_reason(result, signals) -> str | None:
     A re-homing is no reason: the plant starts again there at rest from the measured joints, and
     what that start gets wrong (the links' speed, where dry friction held them) is gone within
     seconds, the links' swing being damped (two replays of the same model started again at two
-    instants agreed to under 1e-4 deg after 3 s, ``studies/DISCREPANCY_MEASUREMENTS.md``)."""
+    instants agreed to under 1e-6 deg after 3 s, ``studies/DISCREPANCY_MEASUREMENTS.md``)."""
     if not result.named_effects:
         return "nothing was named: the starting and final models are the same"
     outside = [name for name in result.named_effects if name not in PLANT_SCORED_EFFECTS]
