@@ -31,7 +31,9 @@ exactly the ``--measured`` analysis on that file. Only then, knowing the generat
 report the true parameters beside the fitted ones and the oracle: the generator's true structure
 fitted to the same fit part, whose held-out gap is what a model of the right structure closes, and
 the floor: the gap the starting model leaves on the same seed's record with nothing hidden, and the
-share of this record's gap above it (``floor_gap``, ``floor_bound``, both the quasi-static replay's). An
+share of this record's gap above it (``floor_gap``, ``floor_bound``, both the quasi-static replay's;
+where the plant scores the analysis, ``plant_floor_gap`` and ``plant_floor_bound`` as well, the
+same floor scored with the plant as the analysis's starting model is). An
 effect of the starting structure cannot be hidden (the data would not change): ``--ablate NAME``
 instead generates with the full structure and analyses from the structure without NAME, with NAME
 among the candidates; that is an ablation, and its report says so.

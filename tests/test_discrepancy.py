@@ -273,6 +273,7 @@ def test_an_effect_missing_from_the_library_is_unexplained_with_a_signature(cli_
     # (both replayed quasi-statically: nothing was named, so the plant scored neither)
     assert report["scored_by"] == "quasi-static replay"
     assert report["oracle_quasi_static"]["shrink"] == report["oracle_shrink"] <= report["floor_bound"]
+    assert report["plant_floor_gap"] is None and report["plant_floor_bound"] is None
 
 
 def test_generation_and_analysis_meet_only_through_the_file(cli_runs, tmp_path):

@@ -17,8 +17,9 @@ from simulation.identification import nominal_parameters
 from simulation.model.laws import coupling_matrix
 from studies.common.discrepancy_report import SCORED_BY_PLANT, SCORED_BY_QUASI_STATIC, report_document
 from studies.common.discrepancy_runs import LIBRARY, generate_measured
-from studies.common.plant_scoring import (PLANT_SCORED_EFFECTS, PlantScore, plant_joints, plant_score_reason,
-                                          pooled_gap, score_with_plant, with_plant_friction)
+from studies.common.plant_scoring import (PLANT_SCORED_EFFECTS, PlantScore, plant_floor_gap, plant_held_out_gap,
+                                          plant_joints, plant_score_reason, pooled_gap, score_with_plant,
+                                          with_plant_friction)
 
 
 def _signals(n=200, homings=1, payload=None):
@@ -169,3 +170,23 @@ def test_the_plant_replay_refuses_a_record_whose_declared_payload_changes():
     signals = _signals(payload=np.r_[np.zeros(100), np.full(100, 0.5)])
     with pytest.raises(ValueError, match="declared payload changes from 0 kg to 0.5 kg"):
         plant_joints(RavenModel(nominal_parameters("left"), np.zeros(3)), signals, RavenII("left", check_limits=False))
+
+
+def test_the_plant_floor_is_the_held_out_gap_of_the_starting_model_with_its_friction_refitted():
+    # a record with nothing hidden whose "starting model" is the generator's own with its Coulomb
+    # forces a third off: the floor scores it as the analysis scores a starting model, so it comes
+    # back to the held-out gap of the generator's own forces, not to that of the forces as given
+    # (measured: 0.00171 against 0.00166, pooled deg and mm; 0.129 as given)
+    dataset, generator = generate_measured((), seed=1, duration=20.0)
+    signals = MeasuredSignals.from_dataset(dataset)
+    split, robot = Split.by_time(signals), RavenII(signals.arm, check_limits=False)
+    friction = generator.effect("coulomb_friction")
+    true = np.asarray(friction.force, dtype=float)
+    wrong = RavenModel(generator.with_effect(friction.replace(force=np.r_[true[:3] * [1.3, 0.7, 1.2], true[3:]])),
+                       np.zeros(3))
+    floor = plant_floor_gap((signals, split, robot, wrong))
+    exact = plant_held_out_gap(RavenModel(generator, np.zeros(3)), signals, split, robot)
+    as_given = plant_held_out_gap(wrong, signals, split, robot)
+    assert floor.shape == (3,) and np.all(np.isfinite(floor))
+    assert pooled_gap(floor) == pytest.approx(pooled_gap(exact), rel=0.05)
+    assert pooled_gap(as_given) > 10 * pooled_gap(exact)

@@ -29,7 +29,8 @@ from studies.common.discrepancy_runs import (
     STRUCTURE_FIELDS,
     drift_record_note,
     floor_bound,
-    floor_gap,
+    floor_record,
+    held_out_gap,
     largest_share,
     log_rate_options,
     oracle,
@@ -529,14 +530,27 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
     The oracle is scored as the analysis was: where ``plant`` (the analysis's plant score, on
     ``signals`` and ``split``) applies, by the plant replay with its Coulomb forces refitted
     (:func:`~studies.common.plant_scoring.score_oracle_with_plant`); its quasi-static score is kept
-    in ``oracle_quasi_static``. The floor is the quasi-static replay's."""
-    from studies.common.plant_scoring import score_oracle_with_plant
+    in ``oracle_quasi_static``. The floor (``floor_gap``, ``floor_bound``) is the quasi-static
+    replay's; where the plant scores the analysis, the same record's floor scored with the plant
+    (:func:`~studies.common.plant_scoring.plant_floor_gap`) and its bound over the plant-scored
+    gap are added as ``plant_floor_gap`` and ``plant_floor_bound`` (None otherwise): the bound a
+    plant-scored shrink is read against."""
+    from studies.common.plant_scoring import plant_floor_gap, pooled_gap, score_oracle_with_plant
 
     report_path = Path(out) / "report.json"
     document = json.loads(report_path.read_text())
     fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds)
-    floor = result.gap_before if not hidden else floor_gap(seed, duration, log_rate_options(log_rate))
+    plant_scored = plant is not None and plant.applies
+    if not hidden:
+        floor = result.gap_before
+        plant_floor = plant.gap_before if plant_scored else None
+    else:
+        record = floor_record(seed, duration, log_rate_options(log_rate))
+        floor = held_out_gap(record[3], *record[:3])
+        plant_floor = plant_floor_gap(record) if plant_scored else None
+        del record
     bound = floor_bound(floor, result.gap_before, result.units)
+    plant_bound = None if plant_floor is None else floor_bound(plant_floor, plant.gap_before, result.units)
     to_report = report_scale(result.units)
     before = pooled_rmse(result.residual_before.joints, result.units)
     quasi_after = float(np.sqrt(np.mean(np.square(fit.gap_after * to_report))))
@@ -577,6 +591,8 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "true_starting_parameters": starting_truth,
         "floor_gap": [float(v) for v in floor],
         "floor_bound": bound,
+        "plant_floor_gap": None if plant_floor is None else [float(v) for v in plant_floor],
+        "plant_floor_bound": plant_bound,
     })
     document["oracle_quasi_static"] = {"gap_after": [float(v) for v in fit.gap_after], "shrink": quasi_shrink}
     write_json(report_path, document)
@@ -618,7 +634,10 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
          f"- floor: the same seed's record with nothing hidden leaves a held-out gap of "
          f"{pooled_rmse(np.asarray(floor)[None, :], result.units):.5f} (pooled, deg and mm) after the starting "
          f"model, against {before:.5f} here, both replayed quasi-statically: about {100 * bound:.1f} % of this "
-         "gap is the most a model replayed that way closes (`python studies/discrepancy_floor.py`)"),
+         "gap is the most a model replayed that way closes (`python studies/discrepancy_floor.py`)"
+         + ("" if plant_bound is None else
+            f"; scored with the plant replay as the analysis is, {pooled_gap(plant_floor):.5f} against "
+            f"{pooled_gap(plant.gap_before):.5f}: about {100 * plant_bound:.1f} %")),
         "",
         "Named effects, fitted beside true values:",
         "",

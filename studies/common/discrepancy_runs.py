@@ -559,19 +559,26 @@ def held_out_gap(model, signals: MeasuredSignals, split: Split, robot) -> np.nda
     return np.sqrt(np.mean(np.square(held_out_residual(model, signals, split, robot)), axis=0))
 
 
-def floor_gap(seed: int, duration: float, robot_options: dict | None = None) -> np.ndarray:
-    """The floor under an analysis of seed ``seed``'s motion: the held-out gap per joint (SI) the
-    identified starting model leaves on the record of the same seed and length with nothing hidden,
-    written and read as the blind analysis reads its file. A hidden effect adds to it; a model of
-    the right structure takes at best the effect's part (``studies/discrepancy_floor.py``). The
-    record with nothing hidden has the same commanded motion, without the re-homing or the payload
-    some hidden effects bring."""
+def floor_record(seed: int, duration: float, robot_options: dict | None = None):
+    """The floor's record and its starting model: seed ``seed``'s motion of ``duration`` seconds
+    with nothing hidden, written and read as the blind analysis reads its file, and the starting
+    structure identified on it (the signals, split, robot and model of :func:`starting_model_on`).
+    The record has the same commanded motion as the seed's hidden-effect records, without the
+    re-homing or the payload some hidden effects bring."""
     import tempfile
 
     dataset, _ = generate_measured((), seed, duration, robot_options=robot_options)
     with tempfile.TemporaryDirectory() as folder:
         dataset = read_measured(write_measured(dataset, folder))
-    signals, split, robot, model = starting_model_on(dataset)
+    return starting_model_on(dataset)
+
+
+def floor_gap(seed: int, duration: float, robot_options: dict | None = None) -> np.ndarray:
+    """The floor under an analysis of seed ``seed``'s motion: the held-out gap per joint (SI) the
+    identified starting model leaves on the record of the same seed and length with nothing hidden
+    (:func:`floor_record`). A hidden effect adds to it; a model of the right structure takes at
+    best the effect's part (``studies/discrepancy_floor.py``)."""
+    signals, split, robot, model = floor_record(seed, duration, robot_options)
     return held_out_gap(model, signals, split, robot)
 
 

@@ -202,6 +202,19 @@ def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTI
                       friction_factors=factors, replays=replays)
 
 
+def plant_floor_gap(record, max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> np.ndarray:
+    """The floor under a plant-scored analysis: the held-out gap per joint (SI) the starting model
+    leaves on a seed's record with nothing hidden (``record``: the signals, split, robot and model
+    of :func:`~studies.common.discrepancy_runs.floor_record`), scored as :func:`score_with_plant`
+    scores a starting model: its Coulomb forces refitted to the plant on the fit part, then the
+    plant replay. Beside a plant-scored shrink, ``1 - floor / gap`` of this floor is the share of
+    the gap a model replayed with the plant could close if the effect left the rest of the residual
+    as it is; the quasi-static floor bounds the quasi-static shrink alone."""
+    signals, split, robot, model = record
+    refitted, _, _ = with_plant_friction(model, signals, split, robot, max_evaluations)
+    return plant_held_out_gap(refitted, signals, split, robot)
+
+
 def score_oracle_with_plant(oracle_result, blind: PlantScore, signals, split,
                             max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> tuple[np.ndarray, float] | None:
     """The oracle's held-out gap per joint (SI) and shrink scored as ``blind`` scored the blind
