@@ -110,3 +110,28 @@ def test_the_floor_bound_is_what_the_same_seeds_none_run_leaves_of_each_gap(tmp_
     # the quasi-static shrink beside the reported one; a run recorded before the plant scored any
     # was scored quasi-statically, so its shrink is that one
     assert [row.strip("|").split("|")[8].strip() for row in backlash_rows] == ["45.0000", "42.0000"]
+
+
+
+def test_a_run_the_plant_scored_reads_its_bound_against_the_floor_the_plant_scored(tmp_path):
+    runs = [dict(_run("none", 0), gap_before=0.003, plant_floor=0.002), dict(_run("none", 1), gap_before=0.004),
+            # scored by the plant: 1 - 0.002 / 0.005, where the quasi-static floor would give 1 - 0.003 / 0.006
+            dict(_run("backlash", 0, ("backlash",), 0.65, 0.65), gap_before=0.006, plant_gap_before=0.005),
+            # its seed's none run was recorded before the plant floor was measured: no bound, never the quasi one
+            dict(_run("backlash", 1, ("backlash",), 0.60, 0.60), gap_before=0.010, plant_gap_before=0.008),
+            # floors the run measured itself (a sweep without none runs)
+            dict(_run("hysteresis", 2, ("hysteresis",), 0.70, 0.70), gap_before=0.010, plant_gap_before=0.008,
+                 floor=0.004, plant_floor=0.002),
+            # not scored by the plant: the quasi-static floor, as before
+            dict(_run("payload", 0, ("payload",), 0.90, 0.90), gap_before=0.030, plant_gap_before=None)]
+    summarise_sweep(runs, 1200.0, tmp_path)
+    text = (tmp_path / "confusion.md").read_text()
+    rows = {(cells[0], cells[1]): cells for cells in
+            ([c.strip() for c in row.strip("|").split("|")] for row in text.split("## Runs")[1].splitlines()
+             if row.startswith("| ") and not row.startswith("| hidden"))}
+    assert rows[("backlash", "0")][9] == "60.0"
+    assert rows[("backlash", "1")][9] == "-"
+    assert rows[("hysteresis", "2")][9] == "75.0"
+    assert rows[("payload", "0")][9] == "90.0"
+    # the summary has no bound for backlash, one of whose runs has none
+    assert _cells(_summary_table(text), "backlash")[5] == "-"
