@@ -545,10 +545,12 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         floor = result.gap_before
         plant_floor = plant.gap_before if plant_scored else None
     else:
+        # the same seed's record with nothing hidden, and its starting model
         record = floor_record(seed, duration, log_rate_options(log_rate))
-        floor = held_out_gap(record[3], *record[:3])
+        none_signals, none_split, none_robot, none_model = record
+        floor = held_out_gap(none_model, none_signals, none_split, none_robot)
         plant_floor = plant_floor_gap(record) if plant_scored else None
-        del record
+        del record, none_signals
     bound = floor_bound(floor, result.gap_before, result.units)
     plant_bound = None if plant_floor is None else floor_bound(plant_floor, plant.gap_before, result.units)
     to_report = report_scale(result.units)
