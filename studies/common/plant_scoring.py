@@ -9,7 +9,7 @@ this way can show closed (backlash at its default size: 38 % to 58 %). The simul
 driven by the logged motor coordinates (:func:`simulation.engine.plant_replay.replay_links`)
 leaves 0.0023 with the identified starting model (``python studies/discrepancy_floor.py
 --dynamic``), and 0.0019 to 0.0020 once its Coulomb forces are refitted as :func:`score_with_plant`
-refits them (:func:`plant_floor_gap`, seeds 20-29 and 32-40): the encoders' own error.
+refits them (:func:`plant_floor_gap`, seeds 20-29 and 32-44): the encoders' own error.
 
 :func:`score_with_plant` is the blind analysis's last step: the starting model and the final one,
 both as the workflow left them, are each replayed with the plant after their Coulomb forces are
