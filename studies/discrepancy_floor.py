@@ -40,7 +40,10 @@ bound each replay's floor sets: what a lower floor would change (about four minu
 analysis of a twenty-minute record).
 
 With ``--dynamic`` as well, the same gap and bound with the dynamic replay (its floor over its gap):
-the most a model replayed that way could close; and for an effect the plant carries
+the most a model replayed that way could close; the effect's record replayed with the generator's
+own parameters beside the floor they leave (``generator``): how close a model of the right structure
+with the right values comes to that floor, which tells a fit that falls short from a structure that
+cannot reach it; and for an effect the plant carries
 (:data:`DYNAMIC_FITS`), the effect's parameters fitted with the dynamic replay on the fit part
 together with the starting model's Coulomb forces (:func:`dynamic_oracle`), and the share of the
 dynamic replay's held-out gap that closes: whether a lower floor lets a model of the right
@@ -52,6 +55,12 @@ with their Coulomb forces refitted with the plant replay (:func:`plant_rescored`
 workflow's own fit, replayed with the links' swing, closes more of the lower floor's gap. The
 refitted figures are what the blind analysis's last step reports
 (:func:`studies.common.plant_scoring.score_with_plant`) where it applies.
+
+With ``--refine``, each effect's record is analysed blind and scored as its report scores it, and
+a named backlash, hysteresis or drift is then refitted with the plant replay, from the analysis's own
+values, together with the Coulomb forces (:func:`plant_refined`): whether a plant-scored shrink
+short of its floor's bound is the quasi-static fit's values or a structure that cannot reach it
+(about fifteen minutes of CPU per twenty-minute record).
 
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
 the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
@@ -298,6 +307,87 @@ def plant_rescored(effect: str, seed: int, duration: float, size_factor: float =
             "plant_shrink_refined": 1.0 - gaps["final refined"] / gaps["start refined"], "replays": replays}
 
 
+REFINED_EFFECTS = {
+    "backlash": lambda e: {"half_width": e.half_width},
+    "hysteresis": lambda e: {"stiffness": e.stiffness, "width": 1.0 / e.beta, "shape": e.gamma / e.beta},
+    "drift": lambda e: {"creep_rate": e.creep_rate, "stiffness_loss": e.stiffness_loss},
+}
+"""Named effects :func:`plant_refined` refits with the plant replay: those the plant carries whose
+plant-scored shrink falls short of its floor's bound, each with how its candidate's values are read
+back from a fitted model's effect."""
+
+
+def refine_range(value: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: np.ndarray):
+    """Search range of a refinement around fitted values: a third to three times each value within
+    the candidate's own range, or from its lower bound to its typical scale where the fit left it at
+    zero."""
+    value = np.asarray(value, dtype=float)
+    low = np.where(value > 0, np.maximum(lower, value / 3.0), lower)
+    high = np.where(value > 0, np.minimum(upper, 3.0 * value), np.minimum(upper, scale))
+    return low, np.maximum(high, low)
+
+
+def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 1.0,
+                  max_evaluations: int = 600) -> dict:
+    """The blind analysis of ``effect``'s generated record scored as its report scores it
+    (:func:`~studies.common.plant_scoring.score_with_plant`), then its named effects of
+    :data:`REFINED_EFFECTS` refitted with the plant replay on the fit part together with the final
+    model's Coulomb forces (:func:`~studies.common.plant_scoring.plant_fit`, Powell's method, at most
+    ``max_evaluations`` replays, from the analysis's own fitted values in :func:`refine_range`).
+
+    Whether a plant-scored shrink short of its floor's bound is the quasi-static fit's values or the
+    structure: the refined model's held-out gap over the same refitted starting gap the report uses.
+    Returns the names, the report's gaps (SI) and shrink, the refined gap and shrink, the fitted and
+    refined values (SI) and the replays."""
+    from studies.common.discrepancy_runs import raven_library, run_on_raven_dataset
+    from studies.common.plant_scoring import FRICTION_FACTOR_RANGE, score_with_plant
+    from kinematics import RavenII
+
+    dataset, _ = generated_record((effect,), seed, duration, size_factor)
+    result, signals, split = run_on_raven_dataset(dataset)
+    score = score_with_plant(result, signals, split)
+    out = {"named_effects": list(result.named_effects), "plant_scored": bool(score.applies)}
+    refined = [n for n in result.named_effects if n in REFINED_EFFECTS]
+    if not score.applies or not refined:
+        return out
+    robot = RavenII(signals.arm, check_limits=False)
+    model = result.model_after
+    candidates = raven_library(signals, refined)
+    starts, ranges, scales, sizes = [], [], [], []
+    for candidate in candidates:
+        lower, upper, scale, _ = candidate.bounds()
+        values = REFINED_EFFECTS[candidate.name](model.params.effect(candidate.name))
+        value = np.concatenate([np.ravel(np.asarray(values[b.name], dtype=float)) for b in candidate.blocks])
+        low, high = refine_range(value, lower, upper, scale)
+        starts.append(np.clip(value, low, high) / scale)
+        ranges.append((low / scale, high / scale))
+        scales.append(scale)
+        sizes.append(candidate.n_parameters)
+    friction = model.params.effect("coulomb_friction")
+    forces = np.asarray(friction.force, dtype=float)
+    cuts = np.cumsum(sizes)[:-1]
+
+    def build(x):
+        with_them = model
+        for candidate, part, scale in zip(candidates, np.split(x[:sum(sizes)], cuts), scales):
+            with_them = candidate.apply(with_them, part * scale)
+        factors = x[sum(sizes):]
+        return with_them.with_effect(friction.replace(force=np.r_[factors * forces[:3], forces[3:]]))
+
+    bounds = [b for low, high in ranges for b in zip(low, high)] + [FRICTION_FACTOR_RANGE] * 3
+    x, replays = plant_fit(model, build, np.r_[np.concatenate(starts), np.ones(3)], bounds,
+                           signals, split, robot, max_evaluations)
+    gap = plant_held_out_gap(build(x), signals, split, robot)
+    before = pooled(score.gap_before)
+    values = {c.name: {k: np.asarray(v).tolist() for k, v in c.unpack(part * scale).items()}
+              for c, part, scale in zip(candidates, np.split(x[:sum(sizes)], cuts), scales)}
+    fitted = {c.name: {k: np.ravel(np.asarray(v, dtype=float)).tolist()
+                       for k, v in REFINED_EFFECTS[c.name](model.params.effect(c.name)).items()} for c in candidates}
+    return {**out, "gap_before": score.gap_before.tolist(), "gap_after": score.gap_after.tolist(),
+            "shrink": float(score.shrink), "refined_gap": gap.tolist(), "refined_shrink": 1.0 - pooled(gap) / before,
+            "fitted": fitted, "refined": values, "replays": replays + score.replays}
+
+
 def pooled(rms: np.ndarray) -> float:
     """Pooled RMS (deg and mm) of per-joint RMS values in SI (the workflow's pooled gap)."""
     return float(np.sqrt(np.mean(np.square(np.asarray(rms) * TO_REPORT))))
@@ -384,6 +474,9 @@ def main(argv: list[str] | None = None) -> dict:
                         help="also replay with the links' swing on their cables followed (the simulator's plant)")
     parser.add_argument("--rescore", action="store_true",
                         help="analyse each effect's record blind and score its models with the plant replay")
+    parser.add_argument("--refine", action="store_true",
+                        help="analyse each effect's record blind, score it as its report does, and refit its named "
+                             "backlash, hysteresis or drift with the plant replay")
     parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
     args = parser.parse_args(argv)
 
@@ -433,6 +526,11 @@ def main(argv: list[str] | None = None) -> dict:
                                                      "gap_before_pooled": pooled(dynamic_gap), "bound": dynamic_bound}
                 print(f"    {effect} hidden, {name}: held-out gap {_numbers(dynamic_gap * TO_REPORT)} (pooled "
                       f"{pooled(dynamic_gap):.5f}); 1 - floor / gap = {100 * dynamic_bound:.1f} %", flush=True)
+                exact, exact_floor = residuals[DYNAMIC_VARIANTS[1]], floor[DYNAMIC_VARIANTS[1]]
+                run["effects"][effect]["dynamic"]["generator"] = {
+                    "gap": exact.tolist(), "gap_pooled": pooled(exact), "floor_pooled": pooled(exact_floor)}
+                print(f"    {effect} hidden, {DYNAMIC_VARIANTS[1]}: held-out gap {_numbers(exact * TO_REPORT)} "
+                      f"(pooled {pooled(exact):.5f}, against {pooled(exact_floor):.5f} with nothing hidden)", flush=True)
                 if effect in DYNAMIC_FITS:
                     run["effects"][effect]["dynamic"]["oracle"] = fitted = dynamic_oracle(
                         effect, seed, args.duration, args.size_factor)
@@ -449,6 +547,18 @@ def main(argv: list[str] | None = None) -> dict:
                       f"{g['final']:.5f} ({100 * scored['plant_shrink']:.1f} %), Coulomb forces refitted with it "
                       f"{g['start refined']:.5f} to {g['final refined']:.5f} ({100 * scored['plant_shrink_refined']:.1f} %)",
                       flush=True)
+            if args.refine:
+                run["effects"][effect]["refined"] = refined = plant_refined(effect, seed, args.duration,
+                                                                            args.size_factor)
+                names = ", ".join(refined["named_effects"]) or "nothing"
+                if "refined_shrink" in refined:
+                    print(f"    {effect} analysed blind: named {names}; reported shrink (plant replay) "
+                          f"{100 * refined['shrink']:.1f} %; its {', '.join(refined['refined'])} refitted with the "
+                          f"plant replay ({refined['replays']} replays): {100 * refined['refined_shrink']:.1f} %",
+                          flush=True)
+                else:
+                    print(f"    {effect} analysed blind: named {names}; nothing to refit with the plant replay",
+                          flush=True)
             if args.analyse:
                 run["effects"][effect]["analyses"] = analyses = analyse_both(effect, seed, args.duration,
                                                                              args.size_factor)
