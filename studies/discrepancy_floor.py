@@ -353,38 +353,38 @@ def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 
     robot = RavenII(signals.arm, check_limits=False)
     model = result.model_after
     candidates = raven_library(signals, refined)
-    starts, ranges, scales, sizes = [], [], [], []
+    fitted, starts, bounds, scales = {}, [], [], []
     for candidate in candidates:
         lower, upper, scale, _ = candidate.bounds()
         values = REFINED_EFFECTS[candidate.name](model.params.effect(candidate.name))
-        value = np.concatenate([np.ravel(np.asarray(values[b.name], dtype=float)) for b in candidate.blocks])
+        fitted[candidate.name] = {b.name: np.ravel(np.asarray(values[b.name], dtype=float)).tolist()
+                                  for b in candidate.blocks}
+        value = np.concatenate(list(fitted[candidate.name].values()))
         low, high = refine_range(value, lower, upper, scale)
         starts.append(np.clip(value, low, high) / scale)
-        ranges.append((low / scale, high / scale))
+        bounds += list(zip(low / scale, high / scale))
         scales.append(scale)
-        sizes.append(candidate.n_parameters)
+    scales = np.concatenate(scales)
     friction = model.params.effect("coulomb_friction")
     forces = np.asarray(friction.force, dtype=float)
-    cuts = np.cumsum(sizes)[:-1]
+    cuts = np.cumsum([c.n_parameters for c in candidates])
+
+    def effect_values(x):
+        return zip(candidates, np.split(x[:cuts[-1]] * scales, cuts[:-1]))
 
     def build(x):
         with_them = model
-        for candidate, part, scale in zip(candidates, np.split(x[:sum(sizes)], cuts), scales):
-            with_them = candidate.apply(with_them, part * scale)
-        factors = x[sum(sizes):]
-        return with_them.with_effect(friction.replace(force=np.r_[factors * forces[:3], forces[3:]]))
+        for candidate, theta in effect_values(x):
+            with_them = candidate.apply(with_them, theta)
+        return with_them.with_effect(friction.replace(force=np.r_[x[cuts[-1]:] * forces[:3], forces[3:]]))
 
-    bounds = [b for low, high in ranges for b in zip(low, high)] + [FRICTION_FACTOR_RANGE] * 3
-    x, replays = plant_fit(model, build, np.r_[np.concatenate(starts), np.ones(3)], bounds,
-                           signals, split, robot, max_evaluations)
+    x, replays = plant_fit(model, build, np.r_[np.concatenate(starts), np.ones(3)],
+                           bounds + [FRICTION_FACTOR_RANGE] * 3, signals, split, robot, max_evaluations)
     gap = plant_held_out_gap(build(x), signals, split, robot)
-    before = pooled(score.gap_before)
-    values = {c.name: {k: np.asarray(v).tolist() for k, v in c.unpack(part * scale).items()}
-              for c, part, scale in zip(candidates, np.split(x[:sum(sizes)], cuts), scales)}
-    fitted = {c.name: {k: np.ravel(np.asarray(v, dtype=float)).tolist()
-                       for k, v in REFINED_EFFECTS[c.name](model.params.effect(c.name)).items()} for c in candidates}
+    values = {c.name: {k: v.tolist() for k, v in c.unpack(theta).items()} for c, theta in effect_values(x)}
     return {**out, "gap_before": score.gap_before.tolist(), "gap_after": score.gap_after.tolist(),
-            "shrink": float(score.shrink), "refined_gap": gap.tolist(), "refined_shrink": 1.0 - pooled(gap) / before,
+            "shrink": float(score.shrink), "refined_gap": gap.tolist(),
+            "refined_shrink": 1.0 - pooled(gap) / pooled(score.gap_before),
             "fitted": fitted, "refined": values, "replays": replays + score.replays}
 
 

@@ -170,16 +170,15 @@ def test_a_diagnostic_replay_receives_the_records_signals_before_any_identificat
     np.testing.assert_array_equal(signals.truth, dataset.targets)
 
 
-def test_rescoring_scores_the_blind_analysis_models_with_the_plant_replay(monkeypatch):
-    # the blind analysis stands in here by a result whose final model is the generator's own
-    # (what a perfect analysis would give) and whose starting model lacks the hidden backlash
+def stand_in_for_the_analysis(monkeypatch, named, models):
+    """Replace the generated record's blind analysis by a result naming ``named`` whose starting and
+    final models ``models(generator)`` builds from the generator's own parameters; returns the dict
+    that receives the generator once the record is generated."""
     from types import SimpleNamespace
 
     import studies.common.discrepancy_runs as runs
-    from simulation.discrepancy.replay import RavenModel
     from simulation.discrepancy.signals import MeasuredSignals
     from simulation.discrepancy.workflow import Split
-    from studies.discrepancy_floor import plant_rescored
 
     generated = {}
     generate = runs.generate_measured
@@ -190,14 +189,23 @@ def test_rescoring_scores_the_blind_analysis_models_with_the_plant_replay(monkey
 
     def analysis(dataset, *args, **kwargs):
         signals = MeasuredSignals.from_dataset(dataset)
-        truth = generated["generator"]
-        result = SimpleNamespace(named_effects=("backlash",), shrink=0.5,
-                                 model_before=RavenModel(truth.without("backlash"), np.zeros(3)),
-                                 model_after=RavenModel(truth, np.zeros(3)))
+        before, after = models(generated["generator"])
+        result = SimpleNamespace(named_effects=named, shrink=0.5, model_before=before, model_after=after)
         return result, signals, Split.by_time(signals)
 
     monkeypatch.setattr(runs, "generate_measured", remember)
     monkeypatch.setattr(runs, "run_on_raven_dataset", analysis)
+    return generated
+
+
+def test_rescoring_scores_the_blind_analysis_models_with_the_plant_replay(monkeypatch):
+    # the blind analysis stands in here by a result whose final model is the generator's own
+    # (what a perfect analysis would give) and whose starting model lacks the hidden backlash
+    from simulation.discrepancy.replay import RavenModel
+    from studies.discrepancy_floor import plant_rescored
+
+    stand_in_for_the_analysis(monkeypatch, ("backlash",), lambda truth: (
+        RavenModel(truth.without("backlash"), np.zeros(3)), RavenModel(truth, np.zeros(3))))
     scored = plant_rescored("backlash", seed=0, duration=20.0, size_factor=3.0, max_evaluations=10)
     gaps = scored["plant_gaps"]
     assert scored["named_effects"] == ["backlash"] and scored["shrink"] == 0.5
@@ -212,33 +220,15 @@ def test_refining_a_named_hysteresis_with_the_plant_recovers_a_wrong_stiffness(m
     # the blind analysis stands in here by a result whose final model is the generator's own with
     # its hysteresis stiffness halved (a quasi-static fit's values, wrong): the refit, started from
     # them, closes more of the gap the report scores, and moves the stiffness towards the truth
-    from types import SimpleNamespace
-
-    import studies.common.discrepancy_runs as runs
     from simulation.discrepancy.replay import RavenModel
-    from simulation.discrepancy.signals import MeasuredSignals
-    from simulation.discrepancy.workflow import Split
     from studies.discrepancy_floor import plant_refined
 
-    generated = {}
-    generate = runs.generate_measured
-
-    def remember(*args, **kwargs):
-        generated["dataset"], generated["generator"] = generate(*args, **kwargs)
-        return generated["dataset"], generated["generator"]
-
-    def analysis(dataset, *args, **kwargs):
-        signals = MeasuredSignals.from_dataset(dataset)
-        truth = generated["generator"]
+    def models(truth):
         hysteresis = truth.effect("hysteresis")
         wrong = truth.with_effect(hysteresis.replace(stiffness=0.5 * np.asarray(hysteresis.stiffness)))
-        result = SimpleNamespace(named_effects=("hysteresis",), shrink=0.5,
-                                 model_before=RavenModel(truth.without("hysteresis"), np.zeros(3)),
-                                 model_after=RavenModel(wrong, np.zeros(3)))
-        return result, signals, Split.by_time(signals)
+        return RavenModel(truth.without("hysteresis"), np.zeros(3)), RavenModel(wrong, np.zeros(3))
 
-    monkeypatch.setattr(runs, "generate_measured", remember)
-    monkeypatch.setattr(runs, "run_on_raven_dataset", analysis)
+    generated = stand_in_for_the_analysis(monkeypatch, ("hysteresis",), models)
     refined = plant_refined("hysteresis", seed=0, duration=20.0, size_factor=3.0, max_evaluations=30)
     true_stiffness = np.asarray(generated["generator"].effect("hysteresis").stiffness)
     assert refined["named_effects"] == ["hysteresis"] and refined["plant_scored"]
