@@ -3,6 +3,7 @@
     python studies/discrepancy.py --hidden-effect backlash --seed 0 --out results/discrepancy
     python studies/discrepancy.py --measured results/discrepancy/measured.parquet --out results/again
     python studies/discrepancy.py --hidden-effect none
+    python studies/discrepancy.py --hidden-effect hysteresis --plant-refit   # named effects refitted with the plant
     python studies/discrepancy.py --ablate coupling                 # the model lacks a term the data have
     python studies/discrepancy.py --measured ../shared/data/dvrk_hwang2020
     python studies/discrepancy.py --sweep --seeds 5 --duration 240  # hidden vs named, with the oracle
@@ -41,7 +42,11 @@ among the candidates; that is an ablation, and its report says so.
 On RAVEN-II data the analysis ends by scoring its starting and final models with the plant replay,
 which follows the links' swing on their cables (:mod:`studies.common.plant_scoring`): where that
 applies the report's gaps and shrink are the plant's (``scored_by``), the workflow's quasi-static
-ones kept in ``quasi_static``, and the oracle is scored the same way.
+ones kept in ``quasi_static``, and the oracle is scored the same way. ``--plant-refit`` then refits
+a named backlash, hysteresis or drift with the plant replay on the fit part, from the workflow's
+own values (:func:`studies.common.plant_scoring.refit_with_plant`; about ten more minutes on a
+twenty-minute record), and reports it beside those figures (``plant_refit``), which stay the
+workflow's models'.
 
 Every run writes ``DIR/report.json``, ``DIR/report.md`` and PNG plots, and exits 0 whenever the
 workflow ran, whatever it found; a mistake in the arguments or an unreadable input file gets one
@@ -92,7 +97,8 @@ from studies.common.discrepancy_runs import (
     short_record_note,
     write_measured,
 )
-from studies.common.plant_scoring import score_with_plant
+from studies.common.plant_scoring import (PLANT_REFIT_EFFECTS, PLANT_REFIT_EVALUATIONS, refit_with_plant,
+                                         score_with_plant)
 from studies.common.discrepancy_sweep import SWEEP_EFFECTS, read_sweeps, summarise_sweep, sweep
 from studies.common.runner import (
     StudyRun,
@@ -140,12 +146,14 @@ def joint_numbers(text: str) -> tuple[int, ...]:
 
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
             progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None,
-            max_effects: int | None = None):
+            max_effects: int | None = None, plant_refit: bool = False):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     The analysis's last step scores its starting and final models with the plant replay where that
     applies (:func:`~studies.common.plant_scoring.score_with_plant`; the report's gaps and shrink are
-    then the plant's, the workflow's quasi-static ones kept beside them).
+    then the plant's, the workflow's quasi-static ones kept beside them). With ``plant_refit`` its
+    named backlash, hysteresis or drift is then refitted with the plant replay
+    (:func:`~studies.common.plant_scoring.refit_with_plant`), reported beside those figures.
 
     Returns the result, signals, split and plant score. ``shown_path`` is the input's name in the report (where
     the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
@@ -176,9 +184,14 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     if result.named_effects:
         say("scoring the starting and final models with the plant replay...")
     plant = score_with_plant(result, signals, split)
+    refit = None
+    if plant_refit:
+        if plant.applies and any(name in PLANT_REFIT_EFFECTS for name in result.named_effects):
+            say("refitting the named effects with the plant replay...")
+        refit = refit_with_plant(result, signals, split, plant)
     write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s,
-                 plant=plant)
-    return result, signals, split, plant
+                 plant=plant, plant_refit=refit)
+    return result, signals, split, plant, refit
 
 
 def main(argv=None) -> int:
@@ -216,6 +229,11 @@ def main(argv=None) -> int:
                         help="--measured RAVEN-II data and --hidden-effect only: name at most N effects instead of "
                              f"{WorkflowSettings().max_iterations}, and stop there without checking for more "
                              "(report.json's search_capped says whether it stopped at N)")
+    parser.add_argument("--plant-refit", action="store_true",
+                        help="--measured RAVEN-II data and --hidden-effect only: refit a named backlash, hysteresis or "
+                             "drift with the plant replay where it scores the analysis, from the workflow's values (up "
+                             f"to {PLANT_REFIT_EVALUATIONS} replays of the fit part, about ten minutes on twenty), "
+                             "reported beside the workflow's own figures")
     parser.add_argument("--effects", type=parse_effect_list, default=None, metavar="NAMES",
                         help="--sweep only these hidden effects (comma-separated; default: every choice)")
     parser.add_argument("--joints", type=joint_numbers, default="4,5,6", help="dVRK joints (1-6) to study")
@@ -236,6 +254,9 @@ def main(argv=None) -> int:
         if args.max_effects is not None and (args.hidden_effect is None and (
                 args.measured is None or is_dvrk_folder(args.measured))):
             parser.error("--max-effects applies to --measured RAVEN-II data and --hidden-effect only")
+        if args.plant_refit and (args.hidden_effect is None and (
+                args.measured is None or is_dvrk_folder(args.measured))):
+            parser.error("--plant-refit applies to --measured RAVEN-II data and --hidden-effect only")
         progress = not args.no_progress and sys.stderr.isatty()
         if args.merge_sweeps:
             runs, duration, size_factor, files = read_sweeps(args.merge_sweeps)
@@ -249,7 +270,7 @@ def main(argv=None) -> int:
             study.publish()
             study.done()
             return 0
-        plant = None
+        plant = refit = None
         if args.hidden_effect is not None:
             say(f"generating {args.duration:.0f} s of motion with {', '.join(args.hidden_effect) or 'nothing'} hidden...")
             dataset, generator = generate_measured(args.hidden_effect, seed=args.seed, duration=args.duration,
@@ -257,9 +278,9 @@ def main(argv=None) -> int:
                                                    robot_options=log_rate_options(args.log_rate))
             path = write_measured(dataset, study.folder)
             del dataset
-            result, signals, split, plant = analyse(path, study.folder, shown_path=study.final(path),
-                                                    progress=progress, backfit_rounds=args.backfit_rounds,
-                                                    max_effects=args.max_effects)
+            result, signals, split, plant, refit = analyse(path, study.folder, shown_path=study.final(path),
+                                                           progress=progress, backfit_rounds=args.backfit_rounds,
+                                                           max_effects=args.max_effects, plant_refit=args.plant_refit)
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result,
                                     args.size_factor, args.log_rate, plant, signals, split)
         elif args.ablate is not None:
@@ -293,10 +314,11 @@ def main(argv=None) -> int:
                 raise UsageError(f"{args.measured} cannot be analysed{left_out}: {one_line(error)}") from error
             del flagged
             try:
-                result, signals, split, plant = analyse(args.measured, study.folder, arm=args.arm,
-                                                        progress=progress, max_rate=args.max_rate,
-                                                        backfit_rounds=args.backfit_rounds,
-                                                        max_effects=args.max_effects)
+                result, signals, split, plant, refit = analyse(args.measured, study.folder, arm=args.arm,
+                                                               progress=progress, max_rate=args.max_rate,
+                                                               backfit_rounds=args.backfit_rounds,
+                                                               max_effects=args.max_effects,
+                                                               plant_refit=args.plant_refit)
             except NotIdentifiableError as error:
                 raise UsageError(f"{args.measured} cannot be analysed: {one_line(error)}") from error
         study.publish()
@@ -316,6 +338,9 @@ def main(argv=None) -> int:
           f"[{pooled_rmse(gap_before[None, :], result.units):.4f} -> {pooled_rmse(gap_after[None, :], result.units):.4f}]")
     if scored_by != SCORED_BY_QUASI_STATIC:
         print(f"  the workflow's quasi-static replay: {100 * result.shrink:.1f} %")
+    if refit is not None:
+        print(f"  {', '.join(refit.effects)} refitted with the plant replay ({refit.replays} replays): "
+              f"{100 * refit.shrink:.1f} %" if refit.applies else f"  not refitted with the plant replay: {refit.reason}")
     for sentence in result.signature:
         print(f"  unexplained: {sentence}")
     study.done()

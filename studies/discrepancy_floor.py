@@ -58,9 +58,10 @@ refitted figures are what the blind analysis's last step reports
 
 With ``--refine``, each effect's record is analysed blind and scored as its report scores it, and
 a named backlash, hysteresis or drift is then refitted with the plant replay, from the analysis's own
-values, together with the Coulomb forces (:func:`plant_refined`): whether a plant-scored shrink
-short of its floor's bound is the quasi-static fit's values or a structure that cannot reach it
-(about fifteen minutes of CPU per twenty-minute record).
+values, together with the Coulomb forces (:func:`plant_refined`, the refit of ``python
+studies/discrepancy.py --plant-refit``): whether a plant-scored shrink short of its floor's bound
+is the quasi-static fit's values or a structure that cannot reach it (about fifteen minutes of CPU
+per twenty-minute record).
 
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
 the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
@@ -78,7 +79,8 @@ from pathlib import Path
 import numpy as np
 
 from studies.common.discrepancy_runs import DEFAULT_RECORD_S, record_length
-from studies.common.plant_scoring import plant_fit, plant_held_out_gap, with_plant_friction
+from studies.common.plant_scoring import (PLANT_REFIT_EVALUATIONS, plant_fit, plant_held_out_gap,
+                                         with_plant_friction)
 from studies.common.reporting import write_json
 from studies.common.runner import non_negative_int, positive_float, positive_int, script_parser
 
@@ -307,85 +309,30 @@ def plant_rescored(effect: str, seed: int, duration: float, size_factor: float =
             "plant_shrink_refined": 1.0 - gaps["final refined"] / gaps["start refined"], "replays": replays}
 
 
-REFINED_EFFECTS = {
-    "backlash": lambda e: {"half_width": e.half_width},
-    "hysteresis": lambda e: {"stiffness": e.stiffness, "width": 1.0 / e.beta, "shape": e.gamma / e.beta},
-    "drift": lambda e: {"creep_rate": e.creep_rate, "stiffness_loss": e.stiffness_loss},
-}
-"""Named effects :func:`plant_refined` refits with the plant replay: those the plant carries whose
-plant-scored shrink falls short of its floor's bound, each with how its candidate's values are read
-back from a fitted model's effect."""
-
-
-def refine_range(value: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: np.ndarray):
-    """Search range of a refinement around fitted values: a third to three times each value within
-    the candidate's own range, or from its lower bound to its typical scale where the fit left it at
-    zero."""
-    value = np.asarray(value, dtype=float)
-    low = np.where(value > 0, np.maximum(lower, value / 3.0), lower)
-    high = np.where(value > 0, np.minimum(upper, 3.0 * value), np.minimum(upper, scale))
-    return low, np.maximum(high, low)
-
-
 def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 1.0,
-                  max_evaluations: int = 600) -> dict:
+                  max_evaluations: int = PLANT_REFIT_EVALUATIONS) -> dict:
     """The blind analysis of ``effect``'s generated record scored as its report scores it
-    (:func:`~studies.common.plant_scoring.score_with_plant`), then its named effects of
-    :data:`REFINED_EFFECTS` refitted with the plant replay on the fit part together with the final
-    model's Coulomb forces (:func:`~studies.common.plant_scoring.plant_fit`, Powell's method, at most
-    ``max_evaluations`` replays, from the analysis's own fitted values in :func:`refine_range`).
+    (:func:`~studies.common.plant_scoring.score_with_plant`), then its named effects refitted with
+    the plant replay as ``--plant-refit`` refits them
+    (:func:`~studies.common.plant_scoring.refit_with_plant`, at most ``max_evaluations`` replays).
 
     Whether a plant-scored shrink short of its floor's bound is the quasi-static fit's values or the
-    structure: the refined model's held-out gap over the same refitted starting gap the report uses.
-    Returns the names, the report's gaps (SI) and shrink, the refined gap and shrink, the fitted and
-    refined values (SI) and the replays."""
-    from studies.common.discrepancy_runs import raven_library, run_on_raven_dataset
-    from studies.common.plant_scoring import FRICTION_FACTOR_RANGE, score_with_plant
-    from kinematics import RavenII
+    structure: the refitted model's held-out gap over the same refitted starting gap the report uses.
+    Returns the names, the report's gaps (SI) and shrink, the refitted gap and shrink, the fitted and
+    refitted values (SI) and the replays."""
+    from studies.common.discrepancy_runs import run_on_raven_dataset
+    from studies.common.plant_scoring import refit_with_plant, score_with_plant
 
     dataset, _ = generated_record((effect,), seed, duration, size_factor)
     result, signals, split = run_on_raven_dataset(dataset)
     score = score_with_plant(result, signals, split)
     out = {"named_effects": list(result.named_effects), "plant_scored": bool(score.applies)}
-    refined = [n for n in result.named_effects if n in REFINED_EFFECTS]
-    if not score.applies or not refined:
+    refit = refit_with_plant(result, signals, split, score, max_evaluations)
+    if not refit.applies:
         return out
-    robot = RavenII(signals.arm, check_limits=False)
-    model = result.model_after
-    candidates = raven_library(signals, refined)
-    fitted, starts, bounds, scales = {}, [], [], []
-    for candidate in candidates:
-        lower, upper, scale, _ = candidate.bounds()
-        values = REFINED_EFFECTS[candidate.name](model.params.effect(candidate.name))
-        fitted[candidate.name] = {b.name: np.ravel(np.asarray(values[b.name], dtype=float)).tolist()
-                                  for b in candidate.blocks}
-        value = np.concatenate(list(fitted[candidate.name].values()))
-        low, high = refine_range(value, lower, upper, scale)
-        starts.append(np.clip(value, low, high) / scale)
-        bounds += list(zip(low / scale, high / scale))
-        scales.append(scale)
-    scales = np.concatenate(scales)
-    friction = model.params.effect("coulomb_friction")
-    forces = np.asarray(friction.force, dtype=float)
-    cuts = np.cumsum([c.n_parameters for c in candidates])
-
-    def effect_values(x):
-        return zip(candidates, np.split(x[:cuts[-1]] * scales, cuts[:-1]))
-
-    def build(x):
-        with_them = model
-        for candidate, theta in effect_values(x):
-            with_them = candidate.apply(with_them, theta)
-        return with_them.with_effect(friction.replace(force=np.r_[x[cuts[-1]:] * forces[:3], forces[3:]]))
-
-    x, replays = plant_fit(model, build, np.r_[np.concatenate(starts), np.ones(3)],
-                           bounds + [FRICTION_FACTOR_RANGE] * 3, signals, split, robot, max_evaluations)
-    gap = plant_held_out_gap(build(x), signals, split, robot)
-    values = {c.name: {k: v.tolist() for k, v in c.unpack(theta).items()} for c, theta in effect_values(x)}
     return {**out, "gap_before": score.gap_before.tolist(), "gap_after": score.gap_after.tolist(),
-            "shrink": float(score.shrink), "refined_gap": gap.tolist(),
-            "refined_shrink": 1.0 - pooled(gap) / pooled(score.gap_before),
-            "fitted": fitted, "refined": values, "replays": replays + score.replays}
+            "shrink": float(score.shrink), "refined_gap": refit.gap_after.tolist(), "refined_shrink": refit.shrink,
+            "fitted": refit.fitted, "refined": refit.refitted, "replays": refit.replays + score.replays}
 
 
 def pooled(rms: np.ndarray) -> float:

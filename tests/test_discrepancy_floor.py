@@ -12,7 +12,8 @@ import pytest
 from simulation.model.parameters import RavenParameters
 from studies.discrepancy_floor import (BANDS_HZ, DYNAMIC_VARIANTS, VARIANTS, band_rms, centred_acceleration,
                                        dynamic_oracle, identification_derivatives, main, motor_side_acceleration,
-                                       pooled, refine_range, sensor_floor, white_band_rms)
+                                       pooled, sensor_floor, white_band_rms)
+from studies.common.plant_scoring import refine_range
 
 
 @pytest.mark.parametrize("n", [1000, 1001])

@@ -15,11 +15,12 @@ from simulation.discrepancy.signals import RAVEN_JOINTS, RAVEN_UNITS, MeasuredSi
 from simulation.discrepancy.workflow import Split
 from simulation.identification import nominal_parameters
 from simulation.model.laws import coupling_matrix
-from studies.common.discrepancy_report import SCORED_BY_PLANT, SCORED_BY_QUASI_STATIC, report_document
+from studies.common.discrepancy_report import (SCORED_BY_PLANT, SCORED_BY_QUASI_STATIC, plant_refit_section,
+                                               report_document)
 from studies.common.discrepancy_runs import LIBRARY, generate_measured
-from studies.common.plant_scoring import (PLANT_SCORED_EFFECTS, PlantScore, plant_floor_gap, plant_held_out_gap,
-                                          plant_joints, plant_score_reason, pooled_gap, score_with_plant,
-                                          with_plant_friction)
+from studies.common.plant_scoring import (PLANT_REFIT_EFFECTS, PLANT_SCORED_EFFECTS, PlantRefit, PlantScore,
+                                          plant_floor_gap, plant_held_out_gap, plant_joints, plant_score_reason,
+                                          pooled_gap, refit_with_plant, score_with_plant, with_plant_friction)
 
 
 def _signals(n=200, homings=1, payload=None):
@@ -136,6 +137,53 @@ def test_the_report_gives_the_plant_replays_gaps_where_it_applies_and_keeps_the_
     assert document["gap_after"] == document["quasi_static"]["gap_after"]
     assert document["plant_replay"]["reason"] == "motor_friction acts outside what the plant replay integrates"
     assert report_document(result, {"kind": "dvrk"}, 1.0)["plant_replay"] is None
+
+
+@pytest.mark.parametrize("named, score, reason", [
+    (("backlash",), PlantScore(applies=False, reason="nothing was named"),
+     "the plant replay does not score the analysis: nothing was named"),
+    (("transmission_error", "homing_offset"), PlantScore(applies=True, gap_before=np.ones(3), gap_after=np.ones(3),
+                                                        shrink=0.0),
+     "no named effect is one the plant refit refits (backlash, hysteresis, drift)"),
+])
+def test_the_plant_refit_refits_nothing_where_it_cannot_and_says_why(named, score, reason):
+    assert set(PLANT_REFIT_EFFECTS) < set(PLANT_SCORED_EFFECTS)
+    refit = refit_with_plant(SimpleNamespace(named_effects=named), _signals(), None, score)
+    assert not refit.applies and refit.reason == reason and refit.replays == 0
+    assert refit.shrink is None and refit.gap_after is None
+    assert report_document(_stand_in_result(), {"kind": "raven"}, 1.0, plant=score,
+                           plant_refit=refit)["plant_refit"]["reason"] == reason
+    assert plant_refit_section(refit, _stand_in_result()) == [
+        "## Named effects refitted with the plant replay", "", f"Not refitted: {reason}.", ""]
+
+
+def test_the_report_gives_the_plant_refit_beside_the_workflows_figures_in_report_units():
+    result = _stand_in_result()
+    result.parameter_units = {"backlash": {"half_width": ["rad", "rad", "m"]}}
+    plant = PlantScore(applies=True, gap_before=np.array([2.2e-4, 0.9e-4, 3e-6]),
+                       gap_after=np.array([0.8e-4, 0.8e-4, 3e-6]), shrink=0.55, replays=120)
+    refit = PlantRefit(applies=True, effects=("backlash",), gap_after=np.array([0.6e-4, 0.7e-4, 2e-6]), shrink=0.65,
+                       fitted={"backlash": {"half_width": [1e-3, 2e-3, 1e-5]}},
+                       refitted={"backlash": {"half_width": [1.5e-3, 1e-3, 2e-5]}},
+                       friction_factors=np.array([0.9, 1.1, 1.0]), replays=600)
+    document = report_document(result, {"kind": "raven"}, 1.0, plant=plant, plant_refit=refit)
+    # the headline stays the workflow's models', the refit beside it in SI
+    assert document["shrink"] == 0.55 and document["gap_after"] == [0.8e-4, 0.8e-4, 3e-6]
+    assert document["plant_refit"] == {"applies": True, "reason": None, "effects": ["backlash"],
+                                       "gap_after": [0.6e-4, 0.7e-4, 2e-6], "shrink": 0.65,
+                                       "fitted": refit.fitted, "refitted": refit.refitted,
+                                       "friction_factors": [0.9, 1.1, 1.0], "replays": 600}
+    assert json.loads(json.dumps(document["plant_refit"])) == document["plant_refit"]
+    text = "\n".join(plant_refit_section(refit, result))
+    assert "shrink 65.0 % over the same starting gap" in text and "600 replays" in text
+    assert "factors 0.900, 1.100, 1.000" in text
+    rows = [line for line in text.splitlines() if line.startswith("| backlash")]
+    # each value fitted, then refitted, in degrees and millimetres
+    np.testing.assert_allclose([[float(c) for c in row.split("|")[4:6]] for row in rows],
+                               [[np.degrees(1e-3), np.degrees(1.5e-3)], [np.degrees(2e-3), np.degrees(1e-3)],
+                                [1e-2, 2e-2]], rtol=1e-3)
+    assert [row.split("|")[6].strip() for row in rows] == ["deg", "deg", "mm"]
+    assert report_document(result, {"kind": "raven"}, 1.0, plant=plant)["plant_refit"] is None
 
 
 def test_the_plant_replay_of_a_model_registers_its_offsets_on_the_motor_side_and_carries_its_payload():

@@ -238,12 +238,16 @@ def scored_gaps(result: DiscrepancyResult, plant=None) -> tuple[np.ndarray, np.n
 
 
 def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
-                    starting_structure=STARTING_STRUCTURE, analysis: str = "blind", plant=None) -> dict:
+                    starting_structure=STARTING_STRUCTURE, analysis: str = "blind", plant=None,
+                    plant_refit=None) -> dict:
     """``report.json``: what the analysis found, its starting point and library, the iterations.
 
     ``gap_before``, ``gap_after`` and ``shrink`` are scored by ``scored_by`` (:func:`scored_gaps`);
     ``quasi_static`` keeps the workflow's own, and ``plant_replay`` the plant's score (None where
-    none was asked for, as on dVRK data and in an ablation)."""
+    none was asked for, as on dVRK data and in an ablation). ``plant_refit`` is the named effects
+    refitted with the plant replay (:class:`~studies.common.plant_scoring.PlantRefit`; None where
+    ``--plant-refit`` was not asked for): beside the headline figures, which stay the workflow's
+    models'."""
     gap_before, gap_after, shrink, scored_by = scored_gaps(result, plant)
     return {
         "analysis": analysis,
@@ -258,6 +262,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "quasi_static": {"gap_before": [float(v) for v in result.gap_before],
                          "gap_after": [float(v) for v in result.gap_after], "shrink": float(result.shrink)},
         "plant_replay": None if plant is None else plant.document(),
+        "plant_refit": None if plant_refit is None else plant_refit.document(),
         "torque_gap_before": None if result.torque_gap_before is None else [float(v) for v in result.torque_gap_before],
         "torque_gap_after": None if result.torque_gap_after is None else [float(v) for v in result.torque_gap_after],
         "equivalent": {k: list(v) for k, v in result.equivalent.items()},
@@ -389,12 +394,14 @@ def _drag_section(result: DiscrepancyResult, signals, split) -> list[str]:
 
 
 def write_report(result: DiscrepancyResult, signals, split, source: dict, out: Path, runtime_s: float,
-                 starting_structure=STARTING_STRUCTURE, analysis: str = "blind", plant=None) -> list[Path]:
+                 starting_structure=STARTING_STRUCTURE, analysis: str = "blind", plant=None,
+                 plant_refit=None) -> list[Path]:
     """Write ``report.json``, ``report.md`` and the plots of one workflow run in the folder ``out``;
-    ``plant`` is the plant replay's score of it, if one was asked for (:func:`report_document`)."""
+    ``plant`` is the plant replay's score of it and ``plant_refit`` its named effects refitted with
+    the plant, each if one was asked for (:func:`report_document`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    document = report_document(result, source, runtime_s, starting_structure, analysis, plant)
+    document = report_document(result, source, runtime_s, starting_structure, analysis, plant, plant_refit)
     note = short_record_note(signals)
     document["record_s"] = float(signals.time[-1] - signals.time[0])
     document["short_record"] = note
@@ -487,6 +494,7 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         if parameter_table else "(none named)",
         "",
         *_structure_section(result),
+        *plant_refit_section(plant_refit, result),
         *_drag_section(result, signals, split),
         "## Signature of the unexplained residual (fit and validation parts)",
         "",
@@ -500,6 +508,32 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
     sections += ["## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figures] + [""]
     md_path = write_text(out / "report.md", "\n".join(sections))
     return [json_path, md_path, *figures]
+
+
+def plant_refit_section(refit, result: DiscrepancyResult) -> list[str]:
+    """The report's section on the named effects refitted with the plant replay (``refit``, a
+    :class:`~studies.common.plant_scoring.PlantRefit`; nothing where none was asked for)."""
+    if refit is None:
+        return []
+    head = ["## Named effects refitted with the plant replay", ""]
+    if not refit.applies:
+        return head + [f"Not refitted: {refit.reason}.", ""]
+    units = {name: result.parameter_units.get(name, {}) for name in refit.effects}
+    rows = [row[:4] + [after[3]] + row[4:] for row, after in zip(
+        parameter_rows(refit.fitted, units, result.joint_names), parameter_rows(refit.refitted, units, result.joint_names))]
+    gaps = ", ".join(f"{name} {v:.4f} {u}" for name, v, u in zip(
+        result.joint_names, in_report_units(refit.gap_after, result.units), report_unit_names(result.units)))
+    return head + [
+        f"{', '.join(refit.effects)} refitted on the fit part with the plant replay, together with the final "
+        f"model's Coulomb forces (factors {', '.join(f'{f:.3f}' for f in refit.friction_factors)}), from the "
+        f"values above, each searched from a third to three times its value (from its lower bound to its typical "
+        f"scale where the fit left it at zero; {refit.replays} replays). "
+        f"Held-out gap: {gaps}; shrink {100 * refit.shrink:.1f} % over the same starting gap (the headline "
+        "figures stay the workflow's own models').",
+        "",
+        markdown_table(["effect", "parameter", "joint", "fitted", "refitted with the plant", "unit"], rows, digits=4),
+        "",
+    ]
 
 
 def _insert_before_figures(out: Path, lines: list[str]) -> None:
@@ -606,6 +640,10 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
                                  result.parameter_bounds)
     oracle_rows = parameter_rows(fit.fitted_parameters, fit.parameter_units, result.joint_names, truth,
                                  fit.parameter_bounds)
+    refit = document.get("plant_refit") or {"applies": False}
+    refit_rows = [] if not refit["applies"] else parameter_rows(
+        refit["refitted"], {name: result.parameter_units.get(name, {}) for name in refit["refitted"]},
+        result.joint_names, truth)
     section = [
         "## What generated the data (added after the blind analysis)",
         "",
@@ -624,7 +662,9 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         f"- shrink ({scored_by}): workflow {100 * shrink:.1f} %, oracle {100 * oracle_shrink:.1f} %"
         + (f"; the workflow reached {100 * fraction:.0f} % of the oracle's shrink" if fraction is not None else "")
         + ("" if scored is None else
-           f" (quasi-static replay: workflow {100 * result.shrink:.1f} %, oracle {100 * quasi_shrink:.1f} %)"),
+           f" (quasi-static replay: workflow {100 * result.shrink:.1f} %, oracle {100 * quasi_shrink:.1f} %)")
+        + ("" if not refit["applies"] else
+           f"; with {', '.join(refit['effects'])} refitted with the plant replay, {100 * refit['shrink']:.1f} %"),
         *([] if fit.residual_structure is None or result.residual_structure is None else [
             f"- repeatable structure of the residual left (largest share of one joint's variance): workflow "
             f"{largest_share(result.residual_structure):.0f} %, oracle {largest_share(fit.residual_structure):.0f} % "
@@ -645,6 +685,9 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
         "",
         markdown_table(TRUE_PARAMETER_COLUMNS, fitted_rows, digits=4) if fitted_rows else "(none named)",
         "",
+        *([] if not refit_rows else [
+            "The named effects refitted with the plant replay, beside true values:", "",
+            markdown_table(["effect", "parameter", "joint", "refitted", "true", "unit"], refit_rows, digits=4), ""]),
         "The oracle's fitted parameters beside the true values:",
         "",
         markdown_table(TRUE_PARAMETER_COLUMNS, oracle_rows, digits=4) if oracle_rows else "(nothing hidden)",

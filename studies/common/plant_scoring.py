@@ -32,7 +32,7 @@ import numpy as np
 
 from simulation.engine.plant_replay import FOLLOWED_EFFECTS, replay_links
 from simulation.discrepancy.signals import RAVEN_UNITS, report_scale
-from studies.common.discrepancy_runs import LIBRARY, PER_HOMING_EFFECTS
+from studies.common.discrepancy_runs import LIBRARY, PER_HOMING_EFFECTS, raven_library
 
 PLANT_SCORED_EFFECTS = tuple(name for name in LIBRARY if name in FOLLOWED_EFFECTS or name in PER_HOMING_EFFECTS)
 """Candidates of the library a model may name and still be scored with the plant replay: those
@@ -50,6 +50,23 @@ models together, ``python studies/discrepancy_floor.py --effects backlash --resc
 
 FRICTION_FACTOR_RANGE = (0.0, 3.0)
 """Range of each joint's factor on the Coulomb force the identification gave (the refit's bounds)."""
+
+PLANT_REFIT_EFFECTS = {
+    "backlash": lambda e: {"half_width": e.half_width},
+    "hysteresis": lambda e: {"stiffness": e.stiffness, "width": 1.0 / e.beta, "shape": e.gamma / e.beta},
+    "drift": lambda e: {"creep_rate": e.creep_rate, "stiffness_loss": e.stiffness_loss},
+}
+"""Named effects :func:`refit_with_plant` refits with the plant replay, each with how its
+candidate's values (the library's parameter blocks) are read back from a fitted model's effect:
+those the plant integrates whose quasi-static fit leaves their plant-scored shrink short of the
+floor's bound (hysteresis by 5 to 9 points, drift by 2 to 6, seeds 30-34, twenty minutes). The
+transmission error and capstan friction close their bound as fitted; a per-homing offset is a
+registration, which the plant takes as given."""
+
+PLANT_REFIT_EVALUATIONS = 600
+"""Plant replays of the fit part allowed for :func:`refit_with_plant` (on twenty-minute records a
+replay of the fit part takes about a second; the refits of hysteresis and drift on seeds 30-33 used
+the whole budget)."""
 
 
 def plant_joints(model, signals, robot) -> np.ndarray:
@@ -201,6 +218,111 @@ def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTI
     shrink = 1.0 - pooled_gap(gaps["after"]) / before if before > 0 else 0.0
     return PlantScore(applies=True, gap_before=gaps["before"], gap_after=gaps["after"], shrink=float(shrink),
                       friction_factors=factors, replays=replays)
+
+
+def refine_range(value, lower, upper, scale) -> tuple[np.ndarray, np.ndarray]:
+    """Search range of a refit around fitted values (arrays in the candidate's SI units): a third to
+    three times each value within the candidate's own range ``lower`` to ``upper``, or from its lower
+    bound to its typical ``scale`` where the fit left it at zero."""
+    value = np.asarray(value, dtype=float)
+    low = np.where(value > 0, np.maximum(lower, value / 3.0), lower)
+    high = np.where(value > 0, np.minimum(upper, 3.0 * value), np.minimum(upper, scale))
+    return low, np.maximum(high, low)
+
+
+@dataclass(frozen=True)
+class PlantRefit:
+    """The named effects of an analysis refitted with the plant replay (:func:`refit_with_plant`).
+
+    ``applies`` False: ``reason`` says why (one sentence) and the other fields are empty. Otherwise
+    ``effects`` are the refitted effects, ``gap_after`` the refitted model's held-out residual RMS
+    per joint (rad, rad, m), ``shrink`` its pooled shrink (deg and mm) over the plant score's
+    starting gap, ``fitted`` and ``refitted`` the effects' values (SI, {effect: {parameter:
+    list}}) before and after, ``friction_factors`` the factors on the final model's Coulomb forces,
+    ``replays`` the plant replays it took.
+    """
+
+    applies: bool
+    reason: str | None = None
+    effects: tuple[str, ...] = ()
+    gap_after: np.ndarray | None = None
+    shrink: float | None = None
+    fitted: dict | None = None
+    refitted: dict | None = None
+    friction_factors: np.ndarray | None = None
+    replays: int = 0
+
+    def document(self) -> dict:
+        """The refit as plain JSON values (SI)."""
+        def listed(v):
+            return None if v is None else [float(x) for x in v]
+
+        return {"applies": self.applies, "reason": self.reason, "effects": list(self.effects),
+                "gap_after": listed(self.gap_after), "shrink": self.shrink, "fitted": self.fitted,
+                "refitted": self.refitted, "friction_factors": listed(self.friction_factors),
+                "replays": self.replays}
+
+
+def refit_with_plant(result, signals, split, score: PlantScore,
+                     max_evaluations: int = PLANT_REFIT_EVALUATIONS) -> PlantRefit:
+    """The named effects of :data:`PLANT_REFIT_EFFECTS` in ``result`` (a workflow result on
+    RAVEN-II ``signals``) refitted with the plant replay on the fit part, together with the final
+    model's Coulomb forces: :func:`plant_fit` (Powell's method, at most ``max_evaluations`` replays)
+    from the analysis's own fitted values, each searched in :func:`refine_range`, the factors on the
+    forces from 1 in :data:`FRICTION_FACTOR_RANGE`.
+
+    The workflow chooses and fits with the quasi-static replay, which keeps no state of the links'
+    swing; where ``score`` (the analysis's plant score) applies, this refit asks what the named
+    effects close when their values are fitted with the replay that scores them. It starts only
+    from the analysis's values and the candidates' own ranges and reads only ``signals``. The
+    refitted model is scored as ``score`` scores the final model: held out, over ``score``'s starting
+    gap. Does not apply where ``score`` does not, or where no named effect is one it refits."""
+    from kinematics import RavenII
+
+    if not score.applies:
+        return PlantRefit(applies=False, reason=f"the plant replay does not score the analysis: {score.reason}")
+    names = [n for n in result.named_effects if n in PLANT_REFIT_EFFECTS]
+    if not names:
+        return PlantRefit(applies=False, reason=f"no named effect is one the plant refit refits "
+                                                f"({', '.join(PLANT_REFIT_EFFECTS)})")
+    robot = RavenII(signals.arm, check_limits=False)
+    model = result.model_after
+    candidates = raven_library(signals, names)
+    fitted, starts, bounds, scales = {}, [], [], []
+    for candidate in candidates:
+        lower, upper, scale, _ = candidate.bounds()
+        values = PLANT_REFIT_EFFECTS[candidate.name](model.params.effect(candidate.name))
+        fitted[candidate.name] = {b.name: np.ravel(np.asarray(values[b.name], dtype=float)).tolist()
+                                  for b in candidate.blocks}
+        value = np.concatenate(list(fitted[candidate.name].values()))
+        low, high = refine_range(value, lower, upper, scale)
+        starts.append(np.clip(value, low, high) / scale)
+        bounds += list(zip(low / scale, high / scale))
+        scales.append(scale)
+    scales = np.concatenate(scales)
+    friction = model.params.effect("coulomb_friction")
+    forces = np.asarray(friction.force, dtype=float)
+    cuts = np.cumsum([c.n_parameters for c in candidates])
+
+    def effect_values(x):
+        return zip(candidates, np.split(x[:cuts[-1]] * scales, cuts[:-1]))
+
+    def build(x):
+        with_them = model
+        for candidate, theta in effect_values(x):
+            with_them = candidate.apply(with_them, theta)
+        return with_them.with_effect(friction.replace(force=np.r_[x[cuts[-1]:] * forces[:3], forces[3:]]))
+
+    x, replays = plant_fit(model, build, np.r_[np.concatenate(starts), np.ones(3)],
+                           bounds + [FRICTION_FACTOR_RANGE] * 3, signals, split, robot, max_evaluations)
+    gap = plant_held_out_gap(build(x), signals, split, robot)
+    if not np.all(np.isfinite(gap)):
+        return PlantRefit(applies=False, replays=replays, reason="the plant replay of the refitted model did not stay finite")
+    before = pooled_gap(score.gap_before)
+    refitted = {c.name: {k: v.tolist() for k, v in c.unpack(theta).items()} for c, theta in effect_values(x)}
+    return PlantRefit(applies=True, effects=tuple(names), gap_after=gap,
+                      shrink=float(1.0 - pooled_gap(gap) / before if before > 0 else 0.0), fitted=fitted,
+                      refitted=refitted, friction_factors=np.asarray(x[cuts[-1]:], dtype=float), replays=replays)
 
 
 def plant_floor_gap(record, max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> np.ndarray:
