@@ -63,6 +63,12 @@ studies/discrepancy.py --plant-refit``): whether a plant-scored shrink short of 
 is the quasi-static fit's values or a structure that cannot reach it (about fifteen minutes of CPU
 per twenty-minute record).
 
+With ``--decompose``, each effect's record is analysed blind and its final model is scored as its
+report scores it, beside the same model with its base (the starting structure as the backfit
+re-identified it) or its named effect swapped for the generator's, the starting model of the same
+seed's record with nothing hidden given the generator's effect, and the generator's own
+(:func:`plant_decomposed`): which part keeps a plant-scored shrink short of its floor's bound.
+
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
 the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
 core); ``--seed 31 --seeds 2 --effects backlash --analyse`` (four analyses, 18 minutes);
@@ -79,8 +85,8 @@ from pathlib import Path
 import numpy as np
 
 from studies.common.discrepancy_runs import DEFAULT_RECORD_S, record_length
-from studies.common.plant_scoring import (PLANT_REFIT_EVALUATIONS, plant_fit, plant_held_out_gap,
-                                         with_plant_friction)
+from studies.common.plant_scoring import (PLANT_FRICTION_EVALUATIONS, PLANT_REFIT_EVALUATIONS, plant_fit,
+                                         plant_held_out_gap, with_plant_friction)
 from studies.common.reporting import write_json
 from studies.common.runner import non_negative_int, positive_float, positive_int, script_parser
 
@@ -335,6 +341,56 @@ def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 
             "fitted": refit.fitted, "refined": refit.refitted, "replays": refit.replays + score.replays}
 
 
+DECOMPOSED_MODELS = ("the workflow's", "the workflow's base, the true effect", "the true base, the workflow's effect",
+                     "the nothing-hidden record's starting model, the true effect", "the generator's")
+"""Models :func:`plant_decomposed` scores: the blind analysis's final model (its base, the starting
+structure as the backfit re-identified it around the named effect, and the named effect as fitted),
+each part of it swapped for the generator's, the starting model identified on the same seed's
+record with nothing hidden (the floor's) with the generator's effect, and the generator's own."""
+
+
+def plant_decomposed(effect: str, seed: int, duration: float, size_factor: float = 1.0,
+                     max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> dict:
+    """A diagnostic that knows the generator: which part of the blind analysis's final model keeps
+    its plant-scored shrink short of the floor's bound.
+
+    ``effect``'s generated record is analysed blind and scored as its report scores it
+    (:func:`~studies.common.plant_scoring.score_with_plant`, at most ``max_evaluations`` replays per
+    Coulomb-force refit). Where the analysis named ``effect`` (one of
+    :data:`~studies.common.plant_scoring.PLANT_REFIT_EFFECTS`, whose generator carries one effect
+    object of that name), each model of :data:`DECOMPOSED_MODELS` is scored the same way: its
+    Coulomb forces refitted with the plant replay on the fit part, its held-out gap over the
+    report's starting gap. Nothing of it feeds an analysis. Returns the names, the report's shrink
+    and each model's shrink."""
+    from kinematics import RavenII
+    from simulation.discrepancy.replay import RavenModel
+    from studies.common.discrepancy_runs import floor_record, run_on_raven_dataset
+    from studies.common.plant_scoring import PLANT_REFIT_EFFECTS, score_with_plant
+
+    if effect not in PLANT_REFIT_EFFECTS:
+        raise ValueError(f"the decomposition swaps one of {', '.join(PLANT_REFIT_EFFECTS)}, not {effect!r}")
+    dataset, generator = generated_record((effect,), seed, duration, size_factor)
+    result, signals, split = run_on_raven_dataset(dataset)
+    score = score_with_plant(result, signals, split, max_evaluations)
+    out = {"named_effects": list(result.named_effects), "plant_scored": bool(score.applies)}
+    if not score.applies or effect not in result.named_effects:
+        return out
+    del dataset
+    robot = RavenII(signals.arm, check_limits=False)
+    final = result.model_after
+    true_effect, fitted_effect = generator.effect(effect), final.params.effect(effect)
+    floor_model = floor_record(seed, duration)[3]
+    models = dict(zip(DECOMPOSED_MODELS, (
+        final, final.with_effect(true_effect), RavenModel(generator.with_effect(fitted_effect), final.offsets),
+        floor_model.with_effect(true_effect), RavenModel(generator, final.offsets))))
+    before = pooled(score.gap_before)
+    shrinks = {}
+    for name, model in models.items():
+        refitted, _, _ = with_plant_friction(model, signals, split, robot, max_evaluations)
+        shrinks[name] = 1.0 - pooled(plant_held_out_gap(refitted, signals, split, robot)) / before
+    return {**out, "shrink": float(score.shrink), "shrinks": shrinks}
+
+
 def pooled(rms: np.ndarray) -> float:
     """Pooled RMS (deg and mm) of per-joint RMS values in SI (the workflow's pooled gap)."""
     return float(np.sqrt(np.mean(np.square(np.asarray(rms) * TO_REPORT))))
@@ -424,6 +480,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--refine", action="store_true",
                         help="analyse each effect's record blind, score it as its report does, and refit its named "
                              "backlash, hysteresis or drift with the plant replay")
+    parser.add_argument("--decompose", action="store_true",
+                        help="analyse each effect's record blind and score its final model with its base and its "
+                             "named effect each swapped for the generator's (a diagnostic that knows the generator)")
     parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
     args = parser.parse_args(argv)
 
@@ -506,6 +565,16 @@ def main(argv: list[str] | None = None) -> dict:
                 else:
                     print(f"    {effect} analysed blind: named {names}; nothing to refit with the plant replay",
                           flush=True)
+            if args.decompose:
+                run["effects"][effect]["decomposed"] = parts = plant_decomposed(effect, seed, args.duration,
+                                                                                args.size_factor)
+                names = ", ".join(parts["named_effects"]) or "nothing"
+                if "shrinks" in parts:
+                    print(f"    {effect} analysed blind: named {names}; reported shrink (plant replay) "
+                          f"{100 * parts['shrink']:.1f} %; " + "; ".join(
+                              f"{name} {100 * v:.1f} %" for name, v in parts["shrinks"].items()), flush=True)
+                else:
+                    print(f"    {effect} analysed blind: named {names}; nothing to decompose", flush=True)
             if args.analyse:
                 run["effects"][effect]["analyses"] = analyses = analyse_both(effect, seed, args.duration,
                                                                              args.size_factor)

@@ -241,6 +241,33 @@ def test_refining_a_named_hysteresis_with_the_plant_recovers_a_wrong_stiffness(m
     assert np.mean(moved) < start
 
 
+def test_the_decomposition_swaps_the_base_and_the_named_effect_for_the_generators(monkeypatch):
+    # the blind analysis stands in here by a result whose final model is the generator's own base with
+    # its hysteresis stiffness halved: swapping in the true base changes nothing, swapping in the true
+    # hysteresis makes it the generator's model
+    from simulation.discrepancy.replay import RavenModel
+    from studies.discrepancy_floor import DECOMPOSED_MODELS, plant_decomposed
+
+    def models(truth):
+        hysteresis = truth.effect("hysteresis")
+        wrong = truth.with_effect(hysteresis.replace(stiffness=0.5 * np.asarray(hysteresis.stiffness)))
+        return RavenModel(truth.without("hysteresis"), np.zeros(3)), RavenModel(wrong, np.zeros(3))
+
+    stand_in_for_the_analysis(monkeypatch, ("hysteresis",), models)
+    parts = plant_decomposed("hysteresis", seed=0, duration=20.0, size_factor=3.0, max_evaluations=8)
+    shrinks = parts["shrinks"]
+    assert tuple(shrinks) == DECOMPOSED_MODELS and parts["named_effects"] == ["hysteresis"]
+    # the final model as the report scores it
+    assert shrinks["the workflow's"] == pytest.approx(parts["shrink"], abs=1e-12)
+    assert shrinks["the true base, the workflow's effect"] == pytest.approx(shrinks["the workflow's"], abs=1e-12)
+    assert shrinks["the workflow's base, the true effect"] == pytest.approx(shrinks["the generator's"], abs=1e-12)
+    assert shrinks["the generator's"] > shrinks["the workflow's"]
+    # a base identified on the same motion with nothing hidden, given the true hysteresis, closes most
+    assert shrinks["the nothing-hidden record's starting model, the true effect"] > 0.5
+    with pytest.raises(ValueError, match="swaps one of backlash, hysteresis, drift, not 'payload'"):
+        plant_decomposed("payload", seed=0, duration=20.0)
+
+
 def test_a_refinement_searches_a_third_to_three_times_each_value_within_its_candidates_range():
     low, high = refine_range(np.array([0.3, 0.0, 0.9]), np.zeros(3), np.ones(3), np.full(3, 0.2))
     np.testing.assert_allclose(low, [0.1, 0.0, 0.3])
