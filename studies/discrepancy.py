@@ -155,12 +155,13 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     named backlash, hysteresis or drift is then refitted with the plant replay
     (:func:`~studies.common.plant_scoring.refit_with_plant`), reported beside those figures.
 
-    Returns the result, signals, split and plant score. ``shown_path`` is the input's name in the report (where
-    the file will be once published); ``arm`` is for bags and CSV files (a Parquet dataset file
-    records its own); ``max_rate`` (Hz) thins a faster log first; ``backfit_rounds`` caps the
-    backfit's rounds and ``max_effects`` the effects named instead of the workflow's defaults. The analysis reads ``path`` and nothing
-    else (:func:`~studies.common.discrepancy_runs.analyse_measured`); the report's source counts
-    the rows it left out for holding impossible values.
+    Returns the result, signals, split, plant score and plant refit (None unless asked for).
+    ``shown_path`` is the input's name in the report (where the file will be once published);
+    ``arm`` is for bags and CSV files (a Parquet dataset file records its own); ``max_rate`` (Hz)
+    thins a faster log first; ``backfit_rounds`` caps the backfit's rounds and ``max_effects`` the
+    effects named instead of the workflow's defaults. The analysis reads ``path`` and nothing else
+    (:func:`~studies.common.discrepancy_runs.analyse_measured`); the report's source counts the rows
+    it left out for holding impossible values.
     """
     import time
 
