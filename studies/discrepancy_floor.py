@@ -454,6 +454,11 @@ def analyse_both(effect: str, seed: int, duration: float, size_factor: float = 1
     return out
 
 
+def say_blind(effect: str, named, detail: str) -> None:
+    """One line on a blind analysis of ``effect``'s record: what it named, then ``detail``."""
+    print(f"    {effect} analysed blind: named {', '.join(named) or 'nothing'}; {detail}", flush=True)
+
+
 def _numbers(values, digits: int = 5) -> str:
     return ", ".join(f"{v:.{digits}f}" for v in np.ravel(values))
 
@@ -556,25 +561,18 @@ def main(argv: list[str] | None = None) -> dict:
             if args.refine:
                 run["effects"][effect]["refined"] = refined = plant_refined(effect, seed, args.duration,
                                                                             args.size_factor)
-                names = ", ".join(refined["named_effects"]) or "nothing"
-                if "refined_shrink" in refined:
-                    print(f"    {effect} analysed blind: named {names}; reported shrink (plant replay) "
-                          f"{100 * refined['shrink']:.1f} %; its {', '.join(refined['refined'])} refitted with the "
-                          f"plant replay ({refined['replays']} replays): {100 * refined['refined_shrink']:.1f} %",
-                          flush=True)
-                else:
-                    print(f"    {effect} analysed blind: named {names}; nothing to refit with the plant replay",
-                          flush=True)
+                say_blind(effect, refined["named_effects"], (
+                    f"reported shrink (plant replay) {100 * refined['shrink']:.1f} %; its "
+                    f"{', '.join(refined['refined'])} refitted with the plant replay ({refined['replays']} replays): "
+                    f"{100 * refined['refined_shrink']:.1f} %") if "refined_shrink" in refined
+                    else "nothing to refit with the plant replay")
             if args.decompose:
                 run["effects"][effect]["decomposed"] = parts = plant_decomposed(effect, seed, args.duration,
                                                                                 args.size_factor)
-                names = ", ".join(parts["named_effects"]) or "nothing"
-                if "shrinks" in parts:
-                    print(f"    {effect} analysed blind: named {names}; reported shrink (plant replay) "
-                          f"{100 * parts['shrink']:.1f} %; " + "; ".join(
-                              f"{name} {100 * v:.1f} %" for name, v in parts["shrinks"].items()), flush=True)
-                else:
-                    print(f"    {effect} analysed blind: named {names}; nothing to decompose", flush=True)
+                say_blind(effect, parts["named_effects"], (
+                    f"reported shrink (plant replay) {100 * parts['shrink']:.1f} %; "
+                    + "; ".join(f"{name} {100 * v:.1f} %" for name, v in parts["shrinks"].items()))
+                    if "shrinks" in parts else "nothing to decompose")
             if args.analyse:
                 run["effects"][effect]["analyses"] = analyses = analyse_both(effect, seed, args.duration,
                                                                              args.size_factor)
