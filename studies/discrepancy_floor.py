@@ -69,6 +69,15 @@ re-identified it) or its named effect swapped for the generator's, the starting 
 seed's record with nothing hidden given the generator's effect, and the generator's own
 (:func:`plant_decomposed`): which part keeps a plant-scored shrink short of its floor's bound.
 
+With ``--rebase``, no analysis runs: each effect's record has its starting structure re-identified
+around the generator's effect's share, as a backfit round re-identifies it around a named effect,
+with that share computed from the generator's model or from the record's starting model given the
+generator's effect, by the quasi-static or the plant replay, and each base is given the generator's
+effect and scored as a report scores a model, beside the nothing-hidden record's starting model
+given the same effect and the floor's bound (:func:`plant_rebased`): what re-identifying the base
+on a record where the effect acts costs, given the effect exactly (about eight minutes of CPU per
+twenty-minute record).
+
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
 the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
 core); ``--seed 31 --seeds 2 --effects backlash --analyse`` (four analyses, 18 minutes);
@@ -391,6 +400,106 @@ def plant_decomposed(effect: str, seed: int, duration: float, size_factor: float
     return {**out, "shrink": float(score.shrink), "shrinks": shrinks}
 
 
+REBASED_MODELS = ("the nothing-hidden record's starting model",
+                  "re-identified around the generator's share, quasi-static replay",
+                  "re-identified around the generator's share, plant replay",
+                  "re-identified around the starting model's share, quasi-static replay",
+                  "re-identified around the starting model's share, plant replay")
+"""Bases :func:`plant_rebased` gives the generator's effect: the starting structure identified on the
+same seed's record with nothing hidden (the floor's), and the starting structure re-identified on
+the effect's record, as one backfit round re-identifies it, with the generator's effect's share
+removed from the joints, that share computed with the generator's own model or with the record's
+starting model given the generator's effect (what a first backfit round has at best), by the
+quasi-static replay (:meth:`~simulation.discrepancy.replay.RavenModel.replay`, as the workflow
+computes it) or by the plant replay (its joints; its motor torques being the logged ones, the torque
+share stays the quasi-static replay's)."""
+
+
+def effect_share(model, effect: str, signals, robot, plant: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """What ``effect`` adds to ``model``'s replayed joints (N, 3, SI) and motor torques (N, 3, or
+    None) along ``signals``: by the quasi-static replay, or with ``plant`` the joints by the plant
+    replay (:func:`~studies.common.plant_scoring.plant_joints`) and the torques as before."""
+    from studies.common.plant_scoring import plant_joints
+
+    without = model.without_extras([effect])
+    with_it, without_it = model.replay(signals, robot), without.replay(signals, robot)
+    torque = None if with_it.torque is None else with_it.torque - without_it.torque
+    if plant:
+        return plant_joints(model, signals, robot) - plant_joints(without, signals, robot), torque
+    return with_it.joints - without_it.joints, torque
+
+
+def plant_rebased(effect: str, seed: int, duration: float, size_factor: float = 1.0,
+                  max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> dict:
+    """A diagnostic that knows the generator: how well the starting structure can be re-identified
+    on a record where ``effect`` acts, given the effect exactly.
+
+    No analysis runs. ``effect``'s generated record is read as the blind analysis reads it, its
+    starting structure identified on the fit part (the report's starting model), and each base of
+    :data:`REBASED_MODELS` is given the generator's effect and scored as the report scores a model
+    (:func:`~studies.common.plant_scoring.score_with_plant`: the Coulomb forces refitted with the
+    plant replay on the fit part, at most ``max_evaluations`` replays, the held-out gap over the
+    starting model's, so scored). The floor's bound (the plant-scored starting model of the
+    nothing-hidden record over this one's) is beside them. A backfit that re-identifies the base
+    around its named effect can reach the bases re-identified here at best: their shrinks tell how
+    much of a shortfall from the bound the re-identification on the effect's record itself costs,
+    and how much the share a backfit removes, computed from a base that still holds part of the
+    effect, costs beside it. Returns each base's shrink, the bound and the identified values of
+    the cable stretch, frictions and gravity scale (SI) of each base, the generator's and the
+    starting model's."""
+    from kinematics import RavenII
+    from simulation.discrepancy.fitting import residual
+    from simulation.discrepancy.replay import RavenModel
+    from studies.common.discrepancy_runs import (STARTING_STRUCTURE, floor_record, raven_base_identifier,
+                                                 starting_model_on)
+    from studies.common.plant_scoring import PLANT_REFIT_EFFECTS, plant_floor_gap
+
+    if effect not in PLANT_REFIT_EFFECTS:
+        raise ValueError(f"the re-identification gives the generator's {', '.join(PLANT_REFIT_EFFECTS)}, "
+                         f"not {effect!r}")
+    dataset, generator = generated_record((effect,), seed, duration, size_factor)
+    signals, split, robot, identified = starting_model_on(dataset)
+    base = raven_base_identifier(dataset, split.fit)
+
+    def with_fitted_offsets(m):
+        return m.with_offsets(m.offsets + residual(m, signals, robot, mask=split.fit).joint_offsets)
+
+    true_effect = generator.effect(effect)
+    start = with_fitted_offsets(identified)
+    sources = {"generator's": with_fitted_offsets(RavenModel(generator, np.zeros(3))),
+               "starting model's": with_fitted_offsets(start.with_effect(true_effect))}
+    floor = floor_record(seed, duration)
+    bases = {REBASED_MODELS[0]: floor[3]}
+    for source, model in sources.items():
+        for plant in (False, True):
+            share = effect_share(model, effect, signals, robot, plant)
+            name = f"re-identified around the {source} share, {'plant' if plant else 'quasi-static'} replay"
+            bases[name] = base.identify(STARTING_STRUCTURE, share)
+
+    def score(model):
+        refitted, _, _ = with_plant_friction(model, signals, split, robot, max_evaluations)
+        return pooled(plant_held_out_gap(refitted, signals, split, robot))
+
+    before = score(start)
+    shrinks = {name: 1.0 - score(with_fitted_offsets(b.with_effect(true_effect))) / before for name, b in bases.items()}
+    values = {name: base_values(m) for name, m in
+              {"the generator's": generator, "the starting model": start, **bases}.items()}
+    return {"shrinks": shrinks, "bound": 1.0 - pooled(plant_floor_gap(floor, max_evaluations)) / before,
+            "values": values}
+
+
+BASE_VALUES = (("cable_stretch", "stiffness"), ("cable_stretch", "hardening"), ("coulomb_friction", "force"),
+               ("viscous_friction", "coefficient"), ("gravity_stretch", "load_scale"))
+"""The identified quantities :func:`plant_rebased` reports per base (the positioning joints)."""
+
+
+def base_values(params) -> dict:
+    """``params``' (a :class:`~simulation.model.parameters.RavenParameters` or a model holding one)
+    :data:`BASE_VALUES` on the positioning joints, SI, as ``{"effect.field": [3 values]}``."""
+    params = getattr(params, "params", params)
+    return {f"{e}.{f}": np.asarray(getattr(params.effect(e), f), dtype=float)[:3].tolist() for e, f in BASE_VALUES}
+
+
 def pooled(rms: np.ndarray) -> float:
     """Pooled RMS (deg and mm) of per-joint RMS values in SI (the workflow's pooled gap)."""
     return float(np.sqrt(np.mean(np.square(np.asarray(rms) * TO_REPORT))))
@@ -488,6 +597,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--decompose", action="store_true",
                         help="analyse each effect's record blind and score its final model with its base and its "
                              "named effect each swapped for the generator's (a diagnostic that knows the generator)")
+    parser.add_argument("--rebase", action="store_true",
+                        help="re-identify each effect's record's starting structure around the generator's effect's "
+                             "share and score it with that effect (a diagnostic that knows the generator; no analysis)")
     parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
     args = parser.parse_args(argv)
 
@@ -573,6 +685,12 @@ def main(argv: list[str] | None = None) -> dict:
                     f"reported shrink (plant replay) {100 * parts['shrink']:.1f} %; "
                     + "; ".join(f"{name} {100 * v:.1f} %" for name, v in parts["shrinks"].items()))
                     if "shrinks" in parts else "nothing to decompose")
+            if args.rebase:
+                run["effects"][effect]["rebased"] = rebased = plant_rebased(effect, seed, args.duration,
+                                                                            args.size_factor)
+                print(f"    {effect} given exactly, scored with the plant replay (bound "
+                      f"{100 * rebased['bound']:.1f} %): "
+                      + "; ".join(f"{name} {100 * v:.1f} %" for name, v in rebased["shrinks"].items()), flush=True)
             if args.analyse:
                 run["effects"][effect]["analyses"] = analyses = analyse_both(effect, seed, args.duration,
                                                                              args.size_factor)
