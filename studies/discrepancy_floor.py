@@ -325,7 +325,7 @@ def plant_rescored(effect: str, seed: int, duration: float, size_factor: float =
 
 
 def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 1.0,
-                  max_evaluations: int = PLANT_REFIT_EVALUATIONS) -> dict:
+                  max_evaluations: int = PLANT_REFIT_EVALUATIONS, rebase: bool = False) -> dict:
     """The blind analysis of ``effect``'s generated record scored as its report scores it
     (:func:`~studies.common.plant_scoring.score_with_plant`), then its named effects refitted with
     the plant replay as ``--plant-refit`` refits them
@@ -334,7 +334,10 @@ def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 
     Whether a plant-scored shrink short of its floor's bound is the quasi-static fit's values or the
     structure: the refitted model's held-out gap over the same refitted starting gap the report uses.
     Returns the names, the report's gaps (SI) and shrink, the refitted gap and shrink, the fitted and
-    refitted values (SI) and the replays."""
+    refitted values (SI) and the replays.
+
+    With ``rebase``, one backfit round with the refitted values follows (:func:`rebased_refit`),
+    reported as ``rebased``."""
     from studies.common.discrepancy_runs import run_on_raven_dataset
     from studies.common.plant_scoring import refit_with_plant, score_with_plant
 
@@ -345,9 +348,51 @@ def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 
     refit = refit_with_plant(result, signals, split, score, max_evaluations)
     if not refit.applies:
         return out
-    return {**out, "gap_before": score.gap_before.tolist(), "gap_after": score.gap_after.tolist(),
-            "shrink": float(score.shrink), "refined_gap": refit.gap_after.tolist(), "refined_shrink": refit.shrink,
-            "fitted": refit.fitted, "refined": refit.refitted, "replays": refit.replays + score.replays}
+    out = {**out, "gap_before": score.gap_before.tolist(), "gap_after": score.gap_after.tolist(),
+           "shrink": float(score.shrink), "refined_gap": refit.gap_after.tolist(), "refined_shrink": refit.shrink,
+           "fitted": refit.fitted, "refined": refit.refitted, "replays": refit.replays + score.replays}
+    if rebase:
+        out["rebased"] = rebased_refit(dataset, result, signals, split, score, refit, max_evaluations // 2)
+    return out
+
+
+def rebased_refit(dataset, result, signals, split, score, refit, max_evaluations: int) -> dict:
+    """One backfit round after a plant refit: the starting structure re-identified on the fit part of
+    ``dataset`` with the refitted effects' share taken out of the joints and torques (the
+    quasi-static replay's, as the workflow's backfit takes it), the refitted effects put on it, and
+    those effects and the Coulomb forces refitted with the plant again
+    (:func:`~studies.common.plant_scoring.refit_with_plant`, from the refitted values, at most
+    ``max_evaluations`` replays). It reads only the record and the analysis's own values.
+
+    The backfit re-identified the base around the effect as the quasi-static fit left it; the refit
+    then moved the effect. Whether the base re-identified around the refitted effect lets a second
+    refit close more. Returns the re-identified model's shrink (its Coulomb forces refitted as the
+    report's score refits them), the second refit's gap (SI), shrink, values (SI) and replays; where
+    the analysis named an effect the identification fits, ``reason`` instead."""
+    from types import SimpleNamespace
+
+    from kinematics import RavenII
+    from simulation.discrepancy.fitting import residual
+    from studies.common.discrepancy_runs import STARTING_STRUCTURE, raven_base_identifier
+    from studies.common.plant_scoring import pooled_gap, refit_with_plant, with_refit
+
+    if set(result.named_effects) != set(refit.effects):
+        return {"reason": "the analysis named effects the plant refit does not refit: "
+                          + ", ".join(n for n in result.named_effects if n not in refit.effects)}
+    robot = RavenII(signals.arm, check_limits=False)
+    refitted = with_refit(result.model_after, refit, signals)
+    share = effect_share(refitted, refit.effects, signals, robot, plant=False)
+    identified = raven_base_identifier(dataset, split.fit).identify(STARTING_STRUCTURE, share)
+    for name in refit.effects:
+        identified = identified.with_effect(refitted.params.effect(name))
+    model = identified.with_offsets(identified.offsets + residual(identified, signals, robot, mask=split.fit).joint_offsets)
+    scored, _, _ = with_plant_friction(model, signals, split, robot)
+    before = pooled_gap(score.gap_before)
+    again = refit_with_plant(SimpleNamespace(named_effects=refit.effects, model_after=model), signals, split, score,
+                             max_evaluations)
+    return {"rebased_shrink": 1.0 - pooled_gap(plant_held_out_gap(scored, signals, split, robot)) / before,
+            "gap_after": again.gap_after.tolist(), "shrink": again.shrink, "refitted": again.refitted,
+            "replays": again.replays}
 
 
 DECOMPOSED_MODELS = ("the workflow's", "the workflow's base, the true effect", "the true base, the workflow's effect",
@@ -415,13 +460,14 @@ computes it) or by the plant replay (its joints; its motor torques being the log
 share stays the quasi-static replay's)."""
 
 
-def effect_share(model, effect: str, signals, robot, plant: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """What ``effect`` adds to ``model``'s replayed joints (N, 3, SI) and motor torques (N, 3, or
-    None) along ``signals``: by the quasi-static replay, or with ``plant`` the joints by the plant
-    replay (:func:`~studies.common.plant_scoring.plant_joints`) and the torques as before."""
+def effect_share(model, effect, signals, robot, plant: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """What ``effect`` (a name, or several) adds to ``model``'s replayed joints (N, 3, SI) and motor
+    torques (N, 3, or None) along ``signals``: by the quasi-static replay, or with ``plant`` the
+    joints by the plant replay (:func:`~studies.common.plant_scoring.plant_joints`) and the torques
+    as before."""
     from studies.common.plant_scoring import plant_joints
 
-    without = model.without_extras([effect])
+    without = model.without_extras([effect] if isinstance(effect, str) else list(effect))
     with_it, without_it = model.replay(signals, robot), without.replay(signals, robot)
     torque = None if with_it.torque is None else with_it.torque - without_it.torque
     if plant:
@@ -594,6 +640,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--refine", action="store_true",
                         help="analyse each effect's record blind, score it as its report does, and refit its named "
                              "backlash, hysteresis or drift with the plant replay")
+    parser.add_argument("--refine-rebase", action="store_true",
+                        help="with --refine: then re-identify the starting structure around the refitted effects "
+                             "and refit them again with the plant replay (half the budget)")
     parser.add_argument("--decompose", action="store_true",
                         help="analyse each effect's record blind and score its final model with its base and its "
                              "named effect each swapped for the generator's (a diagnostic that knows the generator)")
@@ -602,6 +651,8 @@ def main(argv: list[str] | None = None) -> dict:
                              "share and score it with that effect (a diagnostic that knows the generator; no analysis)")
     parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
     args = parser.parse_args(argv)
+    if args.refine_rebase and not args.refine:
+        parser.error("--refine-rebase goes with --refine")
 
     effects = tuple(e for e in args.effects if e != "none")
     labels = [f"{low:g}-{high:g} Hz" if np.isfinite(high) else f"{low:g} Hz-half the rate" for low, high in BANDS_HZ]
@@ -672,12 +723,19 @@ def main(argv: list[str] | None = None) -> dict:
                       flush=True)
             if args.refine:
                 run["effects"][effect]["refined"] = refined = plant_refined(effect, seed, args.duration,
-                                                                            args.size_factor)
+                                                                            args.size_factor,
+                                                                            rebase=args.refine_rebase)
                 say_blind(effect, refined["named_effects"], (
                     f"reported shrink (plant replay) {100 * refined['shrink']:.1f} %; its "
                     f"{', '.join(refined['refined'])} refitted with the plant replay ({refined['replays']} replays): "
                     f"{100 * refined['refined_shrink']:.1f} %") if "refined_shrink" in refined
                     else "nothing to refit with the plant replay")
+                again = refined.get("rebased")
+                if again is not None:
+                    print(f"    {effect}: the base re-identified around the refitted values "
+                          + (f"{100 * again['rebased_shrink']:.1f} %; refitted again ({again['replays']} replays): "
+                             f"{100 * again['shrink']:.1f} %" if "reason" not in again else f"not tried: {again['reason']}"),
+                          flush=True)
             if args.decompose:
                 run["effects"][effect]["decomposed"] = parts = plant_decomposed(effect, seed, args.duration,
                                                                                 args.size_factor)

@@ -241,6 +241,52 @@ def test_refining_a_named_hysteresis_with_the_plant_recovers_a_wrong_stiffness(m
     assert np.mean(moved) < start
 
 
+def test_a_refit_again_on_the_base_re_identified_around_the_refitted_hysteresis(monkeypatch):
+    from simulation.discrepancy.replay import RavenModel
+    from studies.discrepancy_floor import plant_refined
+
+    def models(truth):
+        hysteresis = truth.effect("hysteresis")
+        wrong = truth.with_effect(hysteresis.replace(stiffness=0.5 * np.asarray(hysteresis.stiffness)))
+        return RavenModel(truth.without("hysteresis"), np.zeros(3)), RavenModel(wrong, np.zeros(3))
+
+    stand_in_for_the_analysis(monkeypatch, ("hysteresis",), models)
+    refined = plant_refined("hysteresis", seed=0, duration=20.0, size_factor=3.0, max_evaluations=16, rebase=True)
+    again = refined["rebased"]
+    assert set(again) == {"rebased_shrink", "gap_after", "shrink", "refitted", "replays"}
+    # the second refit starts from the first one's values and stays in the candidate's search range
+    assert again["replays"] > 0 and np.isfinite(again["rebased_shrink"])
+    assert again["shrink"] == pytest.approx(1 - pooled(again["gap_after"]) / pooled(refined["gap_before"]))
+    first, second = (np.asarray(r["hysteresis"]["stiffness"]) for r in (refined["refined"], again["refitted"]))
+    assert np.all(second >= first / 3 - 1e-12) and np.all(second <= 3 * first + 1e-12)
+
+
+def test_a_refit_is_put_on_the_model_it_refitted_and_a_rebase_needs_every_named_effect_refitted():
+    from simulation.discrepancy.replay import RavenModel
+    from simulation.discrepancy.signals import MeasuredSignals
+    from studies.common.plant_scoring import PlantRefit, with_refit
+    from studies.discrepancy_floor import generated_record, rebased_refit
+
+    dataset, generator = generated_record(("hysteresis",), seed=0, duration=20.0)
+    signals = MeasuredSignals.from_dataset(dataset)
+    model = RavenModel(generator, np.zeros(3))
+    refitted = {"hysteresis": {"stiffness": [1.0, 2.0, 300.0], "width": [0.01, 0.02, 0.003], "shape": [0.5, 0.4, 0.3]}}
+    refit = PlantRefit(applies=True, effects=("hysteresis",), refitted=refitted,
+                       friction_factors=np.array([2.0, 1.0, 0.5]))
+    put = with_refit(model, refit, signals)
+    hysteresis = put.params.effect("hysteresis")
+    np.testing.assert_allclose(np.asarray(hysteresis.stiffness)[:3], [1.0, 2.0, 300.0])
+    np.testing.assert_allclose(1.0 / np.asarray(hysteresis.beta)[:3], [0.01, 0.02, 0.003])
+    np.testing.assert_allclose((np.asarray(hysteresis.gamma) / np.asarray(hysteresis.beta))[:3], [0.5, 0.4, 0.3])
+    forces = np.asarray(generator.effect("coulomb_friction").force, dtype=float)
+    np.testing.assert_allclose(put.params.effect("coulomb_friction").force, np.r_[forces[:3] * [2.0, 1.0, 0.5], forces[3:]])
+    with pytest.raises(ValueError, match="the refit does not apply: nothing was named"):
+        with_refit(model, PlantRefit(applies=False, reason="nothing was named"), signals)
+    result = SimpleNamespace(named_effects=("payload", "hysteresis"))
+    assert rebased_refit(dataset, result, signals, None, None, refit, 10) == {
+        "reason": "the analysis named effects the plant refit does not refit: payload"}
+
+
 def test_the_decomposition_swaps_the_base_and_the_named_effect_for_the_generators(monkeypatch):
     # the blind analysis stands in here by a result whose final model is the generator's own base with
     # its hysteresis stiffness halved: swapping in the true base changes nothing, swapping in the true

@@ -325,6 +325,20 @@ def refit_with_plant(result, signals, split, score: PlantScore,
                       refitted=refitted, friction_factors=np.asarray(x[cuts[-1]:], dtype=float), replays=replays)
 
 
+def with_refit(model, refit: PlantRefit, signals):
+    """``model`` (the analysis's final model) with the values of ``refit`` (one that applies): its
+    effects set to the refitted values and its positioning joints' Coulomb forces multiplied by the
+    refit's factors, the model the refit scored."""
+    if not refit.applies:
+        raise ValueError(f"the refit does not apply: {refit.reason}")
+    for candidate in raven_library(signals, refit.effects):
+        values = refit.refitted[candidate.name]
+        model = candidate.apply(model, np.concatenate([np.ravel(values[b.name]) for b in candidate.blocks]))
+    friction = model.params.effect("coulomb_friction")
+    forces = np.asarray(friction.force, dtype=float)
+    return model.with_effect(friction.replace(force=np.r_[refit.friction_factors * forces[:3], forces[3:]]))
+
+
 def plant_floor_gap(record, max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> np.ndarray:
     """The floor under a plant-scored analysis: the held-out gap per joint (SI) the starting model
     leaves on a seed's record with nothing hidden (``record``: the signals, split, robot and model
