@@ -61,7 +61,9 @@ a named backlash, hysteresis or drift is then refitted with the plant replay, fr
 values, together with the Coulomb forces (:func:`plant_refined`, the refit of ``python
 studies/discrepancy.py --plant-refit``): whether a plant-scored shrink short of its floor's bound
 is the quasi-static fit's values or a structure that cannot reach it (about fifteen minutes of CPU
-per twenty-minute record).
+per twenty-minute record). With ``--refine-rebase`` as well, one backfit round follows: the
+starting structure re-identified around the refitted values and the effects refitted again with
+the plant replay (:func:`rebased_refit`, half the budget; about ten minutes more).
 
 With ``--decompose``, each effect's record is analysed blind and its final model is scored as its
 report scores it, beside the same model with its base (the starting structure as the backfit
