@@ -199,6 +199,16 @@ def stand_in_for_the_analysis(monkeypatch, named, models):
     return generated
 
 
+def halved_hysteresis_stiffness(truth):
+    """A stand-in analysis's starting and final models: the generator's without its hysteresis, and
+    the generator's with its hysteresis stiffness halved (a quasi-static fit's values, wrong)."""
+    from simulation.discrepancy.replay import RavenModel
+
+    hysteresis = truth.effect("hysteresis")
+    wrong = truth.with_effect(hysteresis.replace(stiffness=0.5 * np.asarray(hysteresis.stiffness)))
+    return RavenModel(truth.without("hysteresis"), np.zeros(3)), RavenModel(wrong, np.zeros(3))
+
+
 def test_rescoring_scores_the_blind_analysis_models_with_the_plant_replay(monkeypatch):
     # the blind analysis stands in here by a result whose final model is the generator's own
     # (what a perfect analysis would give) and whose starting model lacks the hidden backlash
@@ -221,15 +231,9 @@ def test_refining_a_named_hysteresis_with_the_plant_recovers_a_wrong_stiffness(m
     # the blind analysis stands in here by a result whose final model is the generator's own with
     # its hysteresis stiffness halved (a quasi-static fit's values, wrong): the refit, started from
     # them, closes more of the gap the report scores, and moves the stiffness towards the truth
-    from simulation.discrepancy.replay import RavenModel
     from studies.discrepancy_floor import plant_refined
 
-    def models(truth):
-        hysteresis = truth.effect("hysteresis")
-        wrong = truth.with_effect(hysteresis.replace(stiffness=0.5 * np.asarray(hysteresis.stiffness)))
-        return RavenModel(truth.without("hysteresis"), np.zeros(3)), RavenModel(wrong, np.zeros(3))
-
-    generated = stand_in_for_the_analysis(monkeypatch, ("hysteresis",), models)
+    generated = stand_in_for_the_analysis(monkeypatch, ("hysteresis",), halved_hysteresis_stiffness)
     refined = plant_refined("hysteresis", seed=0, duration=20.0, size_factor=3.0, max_evaluations=30)
     true_stiffness = np.asarray(generated["generator"].effect("hysteresis").stiffness)
     assert refined["named_effects"] == ["hysteresis"] and refined["plant_scored"]
@@ -242,15 +246,9 @@ def test_refining_a_named_hysteresis_with_the_plant_recovers_a_wrong_stiffness(m
 
 
 def test_a_refit_again_on_the_base_re_identified_around_the_refitted_hysteresis(monkeypatch):
-    from simulation.discrepancy.replay import RavenModel
     from studies.discrepancy_floor import plant_refined
 
-    def models(truth):
-        hysteresis = truth.effect("hysteresis")
-        wrong = truth.with_effect(hysteresis.replace(stiffness=0.5 * np.asarray(hysteresis.stiffness)))
-        return RavenModel(truth.without("hysteresis"), np.zeros(3)), RavenModel(wrong, np.zeros(3))
-
-    stand_in_for_the_analysis(monkeypatch, ("hysteresis",), models)
+    stand_in_for_the_analysis(monkeypatch, ("hysteresis",), halved_hysteresis_stiffness)
     refined = plant_refined("hysteresis", seed=0, duration=20.0, size_factor=3.0, max_evaluations=16, rebase=True)
     again = refined["rebased"]
     assert set(again) == {"rebased_shrink", "gap_after", "shrink", "refitted", "replays"}
@@ -291,15 +289,9 @@ def test_the_decomposition_swaps_the_base_and_the_named_effect_for_the_generator
     # the blind analysis stands in here by a result whose final model is the generator's own base with
     # its hysteresis stiffness halved: swapping in the true base changes nothing, swapping in the true
     # hysteresis makes it the generator's model
-    from simulation.discrepancy.replay import RavenModel
     from studies.discrepancy_floor import DECOMPOSED_MODELS, plant_decomposed
 
-    def models(truth):
-        hysteresis = truth.effect("hysteresis")
-        wrong = truth.with_effect(hysteresis.replace(stiffness=0.5 * np.asarray(hysteresis.stiffness)))
-        return RavenModel(truth.without("hysteresis"), np.zeros(3)), RavenModel(wrong, np.zeros(3))
-
-    stand_in_for_the_analysis(monkeypatch, ("hysteresis",), models)
+    stand_in_for_the_analysis(monkeypatch, ("hysteresis",), halved_hysteresis_stiffness)
     parts = plant_decomposed("hysteresis", seed=0, duration=20.0, size_factor=3.0, max_evaluations=8)
     shrinks = parts["shrinks"]
     assert tuple(shrinks) == DECOMPOSED_MODELS and parts["named_effects"] == ["hysteresis"]
