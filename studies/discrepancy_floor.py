@@ -63,7 +63,7 @@ studies/discrepancy.py --plant-refit``): whether a plant-scored shrink short of 
 is the quasi-static fit's values or a structure that cannot reach it (about fifteen minutes of CPU
 per twenty-minute record). With ``--refine-rebase`` as well, one backfit round follows: the
 starting structure re-identified around the refitted values and the effects refitted again with
-the plant replay (:func:`rebased_refit`, half the budget; about ten minutes more).
+the plant replay (:func:`rebased_refit`, half the budget).
 
 With ``--decompose``, each effect's record is analysed blind and its final model is scored as its
 report scores it, beside the same model with its base (the starting structure as the backfit
@@ -77,8 +77,8 @@ with that share computed from the generator's model or from the record's startin
 generator's effect, by the quasi-static or the plant replay, and each base is given the generator's
 effect and scored as a report scores a model, beside the nothing-hidden record's starting model
 given the same effect and the floor's bound (:func:`plant_rebased`): what re-identifying the base
-on a record where the effect acts costs, given the effect exactly (about eight minutes of CPU per
-twenty-minute record).
+on a record where the effect acts costs, given the effect exactly (about ten minutes per
+twenty-minute record, two records at a time on 2 cores).
 
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
 the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
