@@ -327,7 +327,8 @@ def plant_rescored(effect: str, seed: int, duration: float, size_factor: float =
 
 
 def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 1.0,
-                  max_evaluations: int = PLANT_REFIT_EVALUATIONS, rebase: bool = False) -> dict:
+                  max_evaluations: int = PLANT_REFIT_EVALUATIONS, rebase: bool = False,
+                  stiffness: bool = False) -> dict:
     """The blind analysis of ``effect``'s generated record scored as its report scores it
     (:func:`~studies.common.plant_scoring.score_with_plant`), then its named effects refitted with
     the plant replay as ``--plant-refit`` refits them
@@ -339,7 +340,8 @@ def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 
     refitted values (SI) and the replays.
 
     With ``rebase``, one backfit round with the refitted values follows (:func:`rebased_refit`),
-    reported as ``rebased``."""
+    reported as ``rebased``. With ``stiffness``, an output-error step on the base follows the first
+    refit (:func:`stiffened_refit`), reported as ``stiffened``."""
     from studies.common.discrepancy_runs import run_on_raven_dataset
     from studies.common.plant_scoring import refit_with_plant, score_with_plant
 
@@ -355,7 +357,39 @@ def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 
            "fitted": refit.fitted, "refined": refit.refitted, "replays": refit.replays + score.replays}
     if rebase:
         out["rebased"] = rebased_refit(dataset, result, signals, split, score, refit, max_evaluations // 2)
+    if stiffness:
+        out["stiffened"] = stiffened_refit(result, signals, split, score, refit, max_evaluations)
     return out
+
+
+def stiffened_refit(result, signals, split, score, refit, max_evaluations: int) -> dict:
+    """An output-error step on the base after a plant refit: the refitted model's positioning joints'
+    cable stiffness and Coulomb forces refitted with the plant replay on the fit part
+    (:func:`with_plant_stiffness`, at most ``max_evaluations`` replays), then its refitted effects and
+    Coulomb forces refitted again from there (:func:`~studies.common.plant_scoring.refit_with_plant`,
+    half the budget). It reads only the record and the analysis's own values.
+
+    The backfit identifies the base with the quasi-static balance (equation error) around the named
+    effect; given the exact hysteresis, a base so re-identified closed about three points less than
+    one identified with nothing hidden, and a plant refit of its cable stiffness alone took most of
+    that back (``--rebase --output-error``). Whether the same step after the blind refit, which has
+    only its own hysteresis, does too. Returns the stiffened model's gap (SI), shrink, stiffness and
+    force factors and replays, and the second refit's gap, shrink, values (SI) and replays."""
+    from types import SimpleNamespace
+
+    from kinematics import RavenII
+    from studies.common.plant_scoring import pooled_gap, refit_with_plant, with_refit
+
+    robot = RavenII(signals.arm, check_limits=False)
+    stiffened, factors, replays = with_plant_stiffness(with_refit(result.model_after, refit, signals), signals, split,
+                                                       robot, max_evaluations)
+    gap = plant_held_out_gap(stiffened, signals, split, robot)
+    again = refit_with_plant(SimpleNamespace(named_effects=refit.effects, model_after=stiffened), signals, split,
+                             score, max_evaluations // 2)
+    return {"gap_after": gap.tolist(), "shrink": 1.0 - pooled_gap(gap) / pooled_gap(score.gap_before),
+            "stiffness_factors": factors[:3].tolist(), "friction_factors": factors[3:].tolist(), "replays": replays,
+            "refitted_again": {"gap_after": again.gap_after.tolist(), "shrink": again.shrink,
+                               "refitted": again.refitted, "replays": again.replays}}
 
 
 def rebased_refit(dataset, result, signals, split, score, refit, max_evaluations: int) -> dict:
@@ -477,8 +511,40 @@ def effect_share(model, effect, signals, robot, plant: bool) -> tuple[np.ndarray
     return with_it.joints - without_it.joints, torque
 
 
+STIFFNESS_FACTOR_RANGE = (0.9, 1.1)
+"""Range of each positioning joint's factor on its identified cable stiffness in
+:func:`with_plant_stiffness` (a round ten per cent: the bases :func:`plant_rebased` compares differ
+by under one)."""
+
+OUTPUT_ERROR_BASES = (REBASED_MODELS[0], REBASED_MODELS[4])
+"""Bases of :data:`REBASED_MODELS` that :func:`plant_rebased` with ``output_error`` also scores with
+their cable stiffness refitted with the plant replay: the nothing-hidden record's starting model
+and the base a backfit can reach without the generator (the starting model's share, plant replay)."""
+
+
+def with_plant_stiffness(model, signals, split, robot, max_evaluations: int = PLANT_REFIT_EVALUATIONS):
+    """``model`` with its positioning joints' cable stiffness and Coulomb forces refitted with the
+    plant replay on the fit part: :func:`~studies.common.plant_scoring.plant_fit` over one factor
+    per joint on each, from 1, the stiffness factors in :data:`STIFFNESS_FACTOR_RANGE`, the force
+    factors in :data:`~studies.common.plant_scoring.FRICTION_FACTOR_RANGE`. An output-error step
+    on the base: the identification fits the stiffness with the quasi-static balance, equation
+    error. Returns the model, the six factors (stiffness first) and the replays it took."""
+    from studies.common.plant_scoring import FRICTION_FACTOR_RANGE
+
+    stretch, friction = model.params.effect("cable_stretch"), model.params.effect("coulomb_friction")
+    stiffness, forces = np.asarray(stretch.stiffness, dtype=float), np.asarray(friction.force, dtype=float)
+
+    def build(x):
+        return (model.with_effect(stretch.replace(stiffness=x[:3] * stiffness))
+                .with_effect(friction.replace(force=np.r_[x[3:] * forces[:3], forces[3:]])))
+
+    x, replays = plant_fit(model, build, np.ones(6), [STIFFNESS_FACTOR_RANGE] * 3 + [FRICTION_FACTOR_RANGE] * 3,
+                           signals, split, robot, max_evaluations)
+    return build(x), x, replays
+
+
 def plant_rebased(effect: str, seed: int, duration: float, size_factor: float = 1.0,
-                  max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> dict:
+                  max_evaluations: int = PLANT_FRICTION_EVALUATIONS, output_error: bool = False) -> dict:
     """A diagnostic that knows the generator: how well the starting structure can be re-identified
     on a record where ``effect`` acts, given the effect exactly.
 
@@ -492,9 +558,12 @@ def plant_rebased(effect: str, seed: int, duration: float, size_factor: float = 
     around its named effect can reach the bases re-identified here at best: their shrinks tell how
     much of a shortfall from the bound the re-identification on the effect's record itself costs,
     and how much the share a backfit removes, computed from a base that still holds part of the
-    effect, costs beside it. Returns each base's shrink, the bound and the identified values of
-    the cable stretch, frictions and gravity scale (SI) of each base, the generator's and the
-    starting model's."""
+    effect, costs beside it. With ``output_error``, the bases of :data:`OUTPUT_ERROR_BASES` are also
+    scored with their cable stiffness refitted with the plant replay on the fit part beside their
+    Coulomb forces (:func:`with_plant_stiffness`): whether an output-error step on the base recovers
+    what the re-identification costs. Returns each base's shrink, the bound, the identified values
+    of the cable stretch, frictions and gravity scale (SI) of each base, the generator's and the
+    starting model's, and with ``output_error`` each refitted base's shrink, factors and replays."""
     from kinematics import RavenII
     from simulation.discrepancy.fitting import residual
     from simulation.discrepancy.replay import RavenModel
@@ -532,8 +601,18 @@ def plant_rebased(effect: str, seed: int, duration: float, size_factor: float = 
     shrinks = {name: 1.0 - score(with_fitted_offsets(b.with_effect(true_effect))) / before for name, b in bases.items()}
     values = {name: base_values(m) for name, m in
               {"the generator's": generator, "the starting model": start, **bases}.items()}
-    return {"shrinks": shrinks, "bound": 1.0 - pooled(plant_floor_gap(floor, max_evaluations)) / before,
-            "values": values}
+    out = {"shrinks": shrinks, "bound": 1.0 - pooled(plant_floor_gap(floor, max_evaluations)) / before,
+           "values": values}
+    if output_error:
+        out["output_error"] = {}
+        for name in OUTPUT_ERROR_BASES:
+            refitted, factors, replays = with_plant_stiffness(with_fitted_offsets(bases[name].with_effect(true_effect)),
+                                                              signals, split, robot)
+            out["output_error"][name] = {
+                "shrink": 1.0 - pooled(plant_held_out_gap(refitted, signals, split, robot)) / before,
+                "stiffness_factors": factors[:3].tolist(), "friction_factors": factors[3:].tolist(),
+                "replays": replays}
+    return out
 
 
 BASE_VALUES = (("cable_stretch", "stiffness"), ("cable_stretch", "hardening"), ("coulomb_friction", "force"),
@@ -645,16 +724,24 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--refine-rebase", action="store_true",
                         help="with --refine: then re-identify the starting structure around the refitted effects "
                              "and refit them again with the plant replay (half the budget)")
+    parser.add_argument("--refine-stiffness", action="store_true",
+                        help="with --refine: then refit the cable stiffness with the plant replay (output error) and "
+                             "the named effects again (half the budget)")
     parser.add_argument("--decompose", action="store_true",
                         help="analyse each effect's record blind and score its final model with its base and its "
                              "named effect each swapped for the generator's (a diagnostic that knows the generator)")
     parser.add_argument("--rebase", action="store_true",
                         help="re-identify each effect's record's starting structure around the generator's effect's "
                              "share and score it with that effect (a diagnostic that knows the generator; no analysis)")
+    parser.add_argument("--output-error", action="store_true",
+                        help="with --rebase: also refit two bases' cable stiffness with the plant replay")
     parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
     args = parser.parse_args(argv)
-    if args.refine_rebase and not args.refine:
-        parser.error("--refine-rebase goes with --refine")
+    for flag in ("refine_rebase", "refine_stiffness"):
+        if getattr(args, flag) and not args.refine:
+            parser.error(f"--{flag.replace('_', '-')} goes with --refine")
+    if args.output_error and not args.rebase:
+        parser.error("--output-error goes with --rebase")
 
     effects = tuple(e for e in args.effects if e != "none")
     labels = [f"{low:g}-{high:g} Hz" if np.isfinite(high) else f"{low:g} Hz-half the rate" for low, high in BANDS_HZ]
@@ -726,7 +813,8 @@ def main(argv: list[str] | None = None) -> dict:
             if args.refine:
                 run["effects"][effect]["refined"] = refined = plant_refined(effect, seed, args.duration,
                                                                             args.size_factor,
-                                                                            rebase=args.refine_rebase)
+                                                                            rebase=args.refine_rebase,
+                                                                            stiffness=args.refine_stiffness)
                 say_blind(effect, refined["named_effects"], (
                     f"reported shrink (plant replay) {100 * refined['shrink']:.1f} %; its "
                     f"{', '.join(refined['refined'])} refitted with the plant replay ({refined['replays']} replays): "
@@ -738,6 +826,14 @@ def main(argv: list[str] | None = None) -> dict:
                           + (f"{100 * again['rebased_shrink']:.1f} %; refitted again ({again['replays']} replays): "
                              f"{100 * again['shrink']:.1f} %" if "reason" not in again else f"not tried: {again['reason']}"),
                           flush=True)
+                stiffened = refined.get("stiffened")
+                if stiffened is not None:
+                    again = stiffened["refitted_again"]
+                    print(f"    {effect}: the cable stiffness then refitted with the plant replay "
+                          f"({stiffened['replays']} replays, factors "
+                          + ", ".join(f"{f:.4f}" for f in stiffened["stiffness_factors"])
+                          + f"): {100 * stiffened['shrink']:.1f} %; {', '.join(refined['refined'])} refitted again "
+                          f"({again['replays']} replays): {100 * again['shrink']:.1f} %", flush=True)
             if args.decompose:
                 run["effects"][effect]["decomposed"] = parts = plant_decomposed(effect, seed, args.duration,
                                                                                 args.size_factor)
@@ -747,10 +843,15 @@ def main(argv: list[str] | None = None) -> dict:
                     if "shrinks" in parts else "nothing to decompose")
             if args.rebase:
                 run["effects"][effect]["rebased"] = rebased = plant_rebased(effect, seed, args.duration,
-                                                                            args.size_factor)
+                                                                            args.size_factor,
+                                                                            output_error=args.output_error)
                 print(f"    {effect} given exactly, scored with the plant replay (bound "
                       f"{100 * rebased['bound']:.1f} %): "
                       + "; ".join(f"{name} {100 * v:.1f} %" for name, v in rebased["shrinks"].items()), flush=True)
+                for name, refit in rebased.get("output_error", {}).items():
+                    print(f"    {name}, cable stiffness refitted with the plant replay ({refit['replays']} replays, "
+                          "factors " + ", ".join(f"{f:.4f}" for f in refit["stiffness_factors"])
+                          + f"): {100 * refit['shrink']:.1f} %", flush=True)
             if args.analyse:
                 run["effects"][effect]["analyses"] = analyses = analyse_both(effect, seed, args.duration,
                                                                              args.size_factor)

@@ -354,3 +354,34 @@ def test_a_refinement_searches_a_third_to_three_times_each_value_within_its_cand
     low, high = refine_range(np.array([0.3, 0.0, 0.9]), np.zeros(3), np.ones(3), np.full(3, 0.2))
     np.testing.assert_allclose(low, [0.1, 0.0, 0.3])
     np.testing.assert_allclose(high, [0.9, 0.2, 1.0])
+
+
+def test_an_output_error_step_on_the_base_brings_a_wrong_elbow_stiffness_back():
+    # the generator's own model with its elbow cable 5 % softer: the plant replay, refitting one factor
+    # per joint on the stiffness and on the Coulomb forces, moves the elbow back towards the generator's
+    from kinematics import RavenII
+    from simulation.discrepancy.replay import RavenModel
+    from simulation.discrepancy import MeasuredSignals, Split
+    from studies.common.plant_scoring import plant_joints
+    from studies.discrepancy_floor import STIFFNESS_FACTOR_RANGE, generated_record, with_plant_stiffness
+
+    dataset, generator = generated_record((), seed=1, duration=20.0)
+    signals = MeasuredSignals.from_dataset(dataset)
+    split = Split.by_time(signals)
+    robot = RavenII(signals.arm, check_limits=False)
+    stretch = generator.effect("cable_stretch")
+    true = np.asarray(stretch.stiffness, dtype=float)
+    softer = RavenModel(generator, np.zeros(3)).with_effect(stretch.replace(stiffness=true * [1.0, 0.95, 1.0]))
+    refitted, factors, replays = with_plant_stiffness(softer, signals, split, robot, max_evaluations=80)
+    assert factors.shape == (6,) and 0 < replays <= 80 + 6
+    assert all(STIFFNESS_FACTOR_RANGE[0] <= f <= STIFFNESS_FACTOR_RANGE[1] for f in factors[:3])
+    found = np.asarray(refitted.params.effect("cable_stretch").stiffness, dtype=float)
+    np.testing.assert_allclose(found, true * [1.0, 0.95, 1.0] * factors[:3])
+    assert abs(found[1] - true[1]) < 0.5 * abs(0.95 * true[1] - true[1])
+
+    def fit_residual(model):
+        r = (signals.truth - plant_joints(model, signals, robot))[split.fit]
+        return float(np.sum(np.var(r, axis=0) / np.var((signals.truth - plant_joints(softer, signals, robot))[split.fit],
+                                                        axis=0)))
+
+    assert fit_residual(refitted) < fit_residual(softer)
