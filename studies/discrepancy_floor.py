@@ -63,7 +63,9 @@ studies/discrepancy.py --plant-refit``): whether a plant-scored shrink short of 
 is the quasi-static fit's values or a structure that cannot reach it (about fifteen minutes of CPU
 per twenty-minute record). With ``--refine-rebase`` as well, one backfit round follows: the
 starting structure re-identified around the refitted values and the effects refitted again with
-the plant replay (:func:`rebased_refit`, half the budget).
+the plant replay (:func:`rebased_refit`, half the budget). With ``--refine-stiffness`` as well, an
+output-error step on the base follows the refit: the cable stiffness refitted with the plant replay,
+then the effects again (:func:`stiffened_refit`).
 
 With ``--decompose``, each effect's record is analysed blind and its final model is scored as its
 report scores it, beside the same model with its base (the starting structure as the backfit
@@ -78,7 +80,9 @@ generator's effect, by the quasi-static or the plant replay, and each base is gi
 effect and scored as a report scores a model, beside the nothing-hidden record's starting model
 given the same effect and the floor's bound (:func:`plant_rebased`): what re-identifying the base
 on a record where the effect acts costs, given the effect exactly (about ten minutes per
-twenty-minute record, two records at a time on 2 cores).
+twenty-minute record, two records at a time on 2 cores). With ``--output-error`` as well, two of
+those bases are also scored with their cable stiffness refitted with the plant replay
+(:func:`with_plant_stiffness`; about twenty minutes per record in all).
 
 Run: ``python studies/discrepancy_floor.py --effects backlash,registration_offset`` (seeds 30-34,
 the seeds of the README's thirty-round table; fifteen twenty-minute records, under 3 minutes on one
