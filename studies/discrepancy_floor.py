@@ -43,7 +43,8 @@ With ``--dynamic`` as well, the same gap and bound with the dynamic replay (its 
 the most a model replayed that way could close; the effect's record replayed with the generator's
 own parameters beside the floor they leave (``generator``): how close a model of the right structure
 with the right values comes to that floor, which tells a fit that falls short from a structure that
-cannot reach it; and for an effect the plant carries
+cannot reach it (not for a per-homing offset, which the generator draws anew at each homing and
+holds no value of: :func:`generator_model`); and for an effect the plant carries
 (:data:`DYNAMIC_FITS`), the effect's parameters fitted with the dynamic replay on the fit part
 together with the starting model's Coulomb forces (:func:`dynamic_oracle`), and the share of the
 dynamic replay's held-out gap that closes: whether a lower floor lets a model of the right
@@ -254,6 +255,22 @@ def generated_record(hidden, seed: int, duration: float, size_factor: float = 1.
     generated, generator = generate_measured(hidden, seed, duration, size_factor=size_factor)
     with tempfile.TemporaryDirectory() as folder:
         return read_measured(write_measured(generated, folder)), generator
+
+
+def generator_model(generator, offsets, hidden, size_factor: float = 1.0):
+    """The generator's own model of a record for the dynamic replay: its parameters with the
+    starting model's constant ``offsets`` (SI) and, with ``payload`` hidden, the undeclared payload
+    the generator put at the tool tip. None when a hidden effect is a per-homing offset
+    (:data:`~studies.common.discrepancy_runs.PER_HOMING_EFFECTS`): the generator draws those anew at
+    each homing and holds no value of them, and its parameters replayed without them would leave
+    the effect's whole gap and pass it off as the structure's."""
+    from simulation.discrepancy.replay import RavenModel
+    from studies.common.discrepancy_runs import HIDDEN_PAYLOAD_KG, PER_HOMING_EFFECTS
+
+    if any(name in PER_HOMING_EFFECTS for name in hidden):
+        return None
+    model = RavenModel(generator, np.asarray(offsets, dtype=float))
+    return model.with_payload(HIDDEN_PAYLOAD_KG * size_factor) if "payload" in hidden else model
 
 
 DYNAMIC_FITS = ("backlash",)
@@ -662,11 +679,10 @@ def starting_model_residuals(hidden, seed: int, duration: float, size_factor: fl
         replays[VARIANTS[-1]] = signals.with_derivatives(velocity=velocity, acceleration=acceleration)
         out.update({name: held_out_gap(model, replayed, split, robot) for name, replayed in replays.items()})
     if dynamic:
-        from simulation.discrepancy.replay import RavenModel
-
         identified, true = DYNAMIC_VARIANTS
         out[identified] = plant_held_out_gap(model, signals, split, robot)
-        out[true] = plant_held_out_gap(RavenModel(generator, model.offsets), signals, split, robot)
+        exact = generator_model(generator, model.offsets, hidden, size_factor)
+        out[true] = None if exact is None else plant_held_out_gap(exact, signals, split, robot)
     return out
 
 
@@ -796,10 +812,16 @@ def main(argv: list[str] | None = None) -> dict:
                 print(f"    {effect} hidden, {name}: held-out gap {_numbers(dynamic_gap * TO_REPORT)} (pooled "
                       f"{pooled(dynamic_gap):.5f}); 1 - floor / gap = {100 * dynamic_bound:.1f} %", flush=True)
                 exact, exact_floor = residuals[DYNAMIC_VARIANTS[1]], floor[DYNAMIC_VARIANTS[1]]
-                run["effects"][effect]["dynamic"]["generator"] = {
-                    "gap": exact.tolist(), "gap_pooled": pooled(exact), "floor_pooled": pooled(exact_floor)}
-                print(f"    {effect} hidden, {DYNAMIC_VARIANTS[1]}: held-out gap {_numbers(exact * TO_REPORT)} "
-                      f"(pooled {pooled(exact):.5f}, against {pooled(exact_floor):.5f} with nothing hidden)", flush=True)
+                if exact is None:
+                    run["effects"][effect]["dynamic"]["generator"] = None
+                    print(f"    {effect} hidden, {DYNAMIC_VARIANTS[1]}: not replayed (the generator draws "
+                          f"{effect} anew at each homing and holds no value of it)", flush=True)
+                else:
+                    run["effects"][effect]["dynamic"]["generator"] = {
+                        "gap": exact.tolist(), "gap_pooled": pooled(exact), "floor_pooled": pooled(exact_floor)}
+                    print(f"    {effect} hidden, {DYNAMIC_VARIANTS[1]}: held-out gap {_numbers(exact * TO_REPORT)} "
+                          f"(pooled {pooled(exact):.5f}, against {pooled(exact_floor):.5f} with nothing hidden)",
+                          flush=True)
                 if effect in DYNAMIC_FITS:
                     run["effects"][effect]["dynamic"]["oracle"] = fitted = dynamic_oracle(
                         effect, seed, args.duration, args.size_factor)

@@ -11,8 +11,8 @@ import pytest
 
 from simulation.model.parameters import RavenParameters
 from studies.discrepancy_floor import (BANDS_HZ, DYNAMIC_VARIANTS, VARIANTS, band_rms, centred_acceleration,
-                                       dynamic_oracle, identification_derivatives, main, motor_side_acceleration,
-                                       pooled, sensor_floor, white_band_rms)
+                                       dynamic_oracle, generator_model, identification_derivatives, main,
+                                       motor_side_acceleration, pooled, sensor_floor, white_band_rms)
 from studies.common.plant_scoring import refine_range
 
 
@@ -137,6 +137,22 @@ def test_the_command_line_prints_and_writes_the_floor_and_an_effects_share(tmp_p
     assert exact["gap_pooled"] < 0.5 * effect["dynamic"]["gap_before_pooled"]
     assert exact["gap_pooled"] == pytest.approx(exact["floor_pooled"], rel=0.25)
     assert f"hysteresis hidden, {DYNAMIC_VARIANTS[1]}: held-out gap" in text
+
+
+def test_the_generators_model_carries_a_hidden_payload_and_is_withheld_for_offsets_drawn_at_each_homing():
+    from studies.common.discrepancy_runs import HIDDEN_PAYLOAD_KG
+
+    generator = RavenParameters(arm="left").switched(("hysteresis",), True)
+    offsets = np.array([1e-3, -2e-3, 3e-4])
+    model = generator_model(generator, offsets, ("hysteresis",))
+    assert model.params is generator and model.payload_kg == 0.0 and model.homing_offsets is None
+    np.testing.assert_array_equal(model.offsets, offsets)
+    # the undeclared payload is the generator's load, not one of its parameters: carried as the model's
+    assert generator_model(generator, offsets, ("payload",), size_factor=2.0).payload_kg == 2 * HIDDEN_PAYLOAD_KG
+    # offsets drawn anew at each homing have no value in the generator: no model, rather than one
+    # that leaves their whole gap to the structure
+    for hidden in (("registration_offset",), ("homing_offset",), ("hysteresis", "registration_offset")):
+        assert generator_model(generator, offsets, hidden) is None
 
 
 def test_the_dynamic_oracle_fits_backlash_within_its_range_and_refuses_what_it_cannot_fit():
