@@ -13,7 +13,8 @@
 ROS bags, or a folder of either) it always starts from the same structure, the cable model of
 ``STARTING_STRUCTURE`` identified on the first half of the record, and screens the same library
 ``LIBRARY`` (:mod:`studies.common.discrepancy_runs`); it takes no seed and knows nothing of how the
-data were made. ``--max-rate HZ`` keeps every k-th row of a faster RAVEN-II log first (its thresholds
+data were made (``--seed``, ``--duration`` or ``--size-factor`` given with it is refused, as is any
+option given with an input it does nothing for). ``--max-rate HZ`` keeps every k-th row of a faster RAVEN-II log first (its thresholds
 were set on 30 Hz logs, and its cost grows with the rows). ``--backfit-rounds N`` allows N rounds
 of re-identifying the starting structure around a candidate instead of thirty (``report.json``'s
 ``backfit_capped`` names the fits the cap cut short; with ``--hidden-effect`` the oracle gets the
@@ -108,6 +109,7 @@ from studies.common.runner import (
     one_line,
     positive_float,
     positive_int,
+    refuse_options_that_do_not_apply,
     say,
     script_parser,
 )
@@ -195,6 +197,27 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     return result, signals, split, plant, refit
 
 
+OPTION_DEFAULTS = {"seed": 0, "seeds": 3, "duration": DEFAULT_RECORD_S, "size_factor": 1.0,
+                   "joints": (4, 5, 6), "arm": "left"}
+"""Values of the options that apply to some inputs only, when not given (their parser default is
+None, so that a given option can be told from an absent one)."""
+
+
+def options_that_apply(args) -> dict[str, tuple[bool, str]]:
+    """Which of the input-dependent options apply to this run's input, and where each applies."""
+    generated = args.hidden_effect is not None or args.ablate is not None or args.sweep
+    dvrk = args.measured is not None and is_dvrk_folder(args.measured)
+    return {
+        "seed": (generated, "generated data (--hidden-effect, --ablate, --sweep): measured data carry no seed"),
+        "seeds": (args.sweep, "--sweep only"),
+        "duration": (generated, "generated data (--hidden-effect, --ablate, --sweep) only"),
+        "size_factor": (args.hidden_effect is not None or args.sweep, "--hidden-effect and --sweep only"),
+        "effects": (args.sweep, "--sweep only"),
+        "joints": (dvrk, "--measured dVRK data only"),
+        "arm": (args.measured is not None and not dvrk, "--measured RAVEN-II data only"),
+    }
+
+
 def main(argv=None) -> int:
     parser = script_parser(STUDY, __doc__)
     source = parser.add_mutually_exclusive_group(required=True)
@@ -207,15 +230,16 @@ def main(argv=None) -> int:
     source.add_argument("--sweep", action="store_true", help="confusion matrix of hidden vs named effects")
     source.add_argument("--merge-sweeps", type=existing_path, nargs="+", metavar="DIR",
                         help="one confusion matrix from sweeps run apart (their --out folders or confusion.json)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of generated data")
-    parser.add_argument("--seeds", type=positive_int, default=3, help="seeds per effect for --sweep")
-    parser.add_argument("--duration", type=record_length, default=DEFAULT_RECORD_S,
+    parser.add_argument("--seed", type=non_negative_int, default=None,
+                        help="seed of generated data (default 0; --sweep: its first seed)")
+    parser.add_argument("--seeds", type=positive_int, default=None, help="seeds per effect for --sweep (default 3)")
+    parser.add_argument("--duration", type=record_length, default=None,
                         help="seconds of generated random motion (default: twenty minutes, the paper's random tests "
                              "and the shortest record on which drift at its published size was named; 240 for a "
                              "quicker look that cannot show drift; at least 5 s, at most six hours)")
-    parser.add_argument("--size-factor", type=positive_float, default=1.0,
-                        help="generate the hidden effect at this multiple of its default size (default 1: the "
-                             "size its source gives)")
+    parser.add_argument("--size-factor", type=positive_float, default=None,
+                        help="--hidden-effect and --sweep only: generate the hidden effect at this multiple of its "
+                             "default size (default 1: the size its source gives)")
     parser.add_argument("--log-rate", type=positive_float, default=LOG_RATE, metavar="HZ",
                         help="--hidden-effect only: log the generated robot state (and the ground truth, at least "
                              f"at its {TRUTH_RATE:g} Hz) at this rate instead of the robot's {LOG_RATE:g} Hz")
@@ -237,9 +261,10 @@ def main(argv=None) -> int:
                              "reported beside the workflow's own figures")
     parser.add_argument("--effects", type=parse_effect_list, default=None, metavar="NAMES",
                         help="--sweep only these hidden effects (comma-separated; default: every choice)")
-    parser.add_argument("--joints", type=joint_numbers, default="4,5,6", help="dVRK joints (1-6) to study")
-    parser.add_argument("--arm", default="left", choices=("left", "right"),
-                        help="arm of --measured bags or CSV files (Parquet dataset files record theirs)")
+    parser.add_argument("--joints", type=joint_numbers, default=None,
+                        help="dVRK joints (1-6) to study (default 4,5,6: the wrist)")
+    parser.add_argument("--arm", default=None, choices=("left", "right"),
+                        help="arm of --measured bags or CSV files (default left; Parquet dataset files record theirs)")
     parser.add_argument("--out", type=Path, default=Path("results") / "discrepancy")
     parser.add_argument("--no-progress", action="store_true",
                         help="no progress bars (nor, when stderr is not a terminal, a line per finished sweep run)")
@@ -258,6 +283,7 @@ def main(argv=None) -> int:
         if args.plant_refit and (args.hidden_effect is None and (
                 args.measured is None or is_dvrk_folder(args.measured))):
             parser.error("--plant-refit applies to --measured RAVEN-II data and --hidden-effect only")
+        refuse_options_that_do_not_apply(parser, args, options_that_apply(args), OPTION_DEFAULTS)
         progress = not args.no_progress and sys.stderr.isatty()
         if args.merge_sweeps:
             runs, duration, size_factor, files = read_sweeps(args.merge_sweeps)

@@ -33,7 +33,7 @@ from studies.common.discrepancy_runs import DEFAULT_RECORD_S, hidden_effects, re
 from studies.common.reporting import write_json
 from studies.common.runner import (
     existing_path, fail, jobs_count, non_negative_int, one_line, open_fraction, positive_float, positive_int,
-    script_parser,
+    refuse_options_that_do_not_apply, script_parser,
 )
 
 STUDY = "discrepancy_rounding"
@@ -113,10 +113,12 @@ def main(argv: list[str] | None = None) -> dict:
     source.add_argument("--hidden-effect", type=hidden_effects, metavar="NAME",
                         help="generate a record with this effect hidden (none, a name, or names separated by commas)")
     source.add_argument("--measured", type=existing_path, help="a RAVEN-II record (dataset file or bag) instead")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the generated data (>= 0)")
-    parser.add_argument("--duration", type=record_length, default=DEFAULT_RECORD_S,
-                        help="record length (s, at most six hours)")
-    parser.add_argument("--size-factor", type=positive_float, default=1.0, help="the hidden effect's size (x default)")
+    parser.add_argument("--seed", type=non_negative_int, default=None,
+                        help="--hidden-effect only: seed of the generated data (>= 0; default 0)")
+    parser.add_argument("--duration", type=record_length, default=None,
+                        help="--hidden-effect only: record length (s, at most six hours; default twenty minutes)")
+    parser.add_argument("--size-factor", type=positive_float, default=None,
+                        help="--hidden-effect only: the hidden effect's size (x default; default 1)")
     parser.add_argument("--copies", type=positive_int, default=4, help="perturbed copies analysed beside the record")
     parser.add_argument("--backfit-rounds", type=non_negative_int, default=None,
                         help="cap on the backfit's rounds (default: the workflow's)")
@@ -125,6 +127,11 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--jobs", type=jobs_count, default=-1, help="parallel analyses (>= 1; -1: all cores)")
     parser.add_argument("--out", type=Path, default=None, help="write every analysis and the verdict to this JSON file")
     args = parser.parse_args(argv)
+    generated = args.hidden_effect is not None
+    refuse_options_that_do_not_apply(
+        parser, args, {name: (generated, "--hidden-effect only: a record carries no seed, length or size factor")
+                       for name in ("seed", "duration", "size_factor")},
+        {"seed": 0, "duration": DEFAULT_RECORD_S, "size_factor": 1.0})
 
     if args.measured is not None:
         try:

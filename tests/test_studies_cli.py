@@ -152,11 +152,28 @@ IN_PROCESS_MISTAKES = [
     ("discrepancy", ["--ablate", "coupling", "--plant-refit"],
      "--plant-refit applies to --measured RAVEN-II data and --hidden-effect only"),
     ("discrepancy", ["--measured", "{tmp}/empty"], "holds no .bag or .parquet"),
+    ("discrepancy", ["--measured", "{tmp}/empty", "--seed", "3"],
+     "--seed applies to generated data (--hidden-effect, --ablate, --sweep): measured data carry no seed"),
+    ("discrepancy", ["--measured", "{tmp}/empty", "--seed", "0"], "--seed applies to generated data"),
+    ("discrepancy", ["--measured", "{tmp}/empty", "--duration", "60"], "--duration applies to generated data"),
+    ("discrepancy", ["--measured", "{tmp}/empty", "--size-factor", "3"],
+     "--size-factor applies to --hidden-effect and --sweep only"),
+    ("discrepancy", ["--ablate", "coupling", "--size-factor", "3"],
+     "--size-factor applies to --hidden-effect and --sweep only"),
+    ("discrepancy", ["--hidden-effect", "backlash", "--seeds", "5"], "--seeds applies to --sweep only"),
+    ("discrepancy", ["--hidden-effect", "backlash", "--effects", "drift"], "--effects applies to --sweep only"),
+    ("discrepancy", ["--merge-sweeps", "{tmp}/empty", "--seed", "2"], "--seed applies to generated data"),
+    ("discrepancy", ["--hidden-effect", "backlash", "--joints", "5"], "--joints applies to --measured dVRK data only"),
+    ("discrepancy", ["--hidden-effect", "backlash", "--arm", "right"],
+     "--arm applies to --measured RAVEN-II data only"),
     ("discrepancy", ["--measured", "{tmp}/empty", "--joints", "0,7"], "--joints"),
     ("discrepancy", ["--merge-sweeps", "{tmp}/missing"], "no file or folder"),
     ("discrepancy", ["--merge-sweeps", "{tmp}/empty"], "confusion.json is not a sweep's confusion.json"),
     ("discrepancy", ["--merge-sweeps", "{tmp}/robot_corrupt.json"], "robot_corrupt.json is not a sweep's"),
     ("discrepancy", ["--merge-sweeps", "{tmp}/robot_unknown.json"], "(no 'runs' and 'duration_s')"),
+    ("discrepancy_rounding", ["--measured", "{tmp}/empty", "--seed", "2"],
+     "--seed applies to --hidden-effect only: a record carries no seed, length or size factor"),
+    ("discrepancy_rounding", ["--measured", "{tmp}/empty", "--duration", "60"], "--duration applies to --hidden-effect"),
     ("discrepancy_convergence", ["--iterations", "30,0"], "--iterations"),
     ("discrepancy_homing", ["--sizes", "1,0"], "--sizes"),
     ("discrepancy_homing", ["--sizes", "1,nan"], "--sizes"),
@@ -204,6 +221,34 @@ def test_more_mistakes_in_process(workspace, capsys, script, arguments, named):
     assert exit_info.value.code == 2
     assert len(lines) == 1 and named in lines[0], lines
     assert _tree(workspace) == before
+
+
+def test_help_shows_a_default_only_where_there_is_one():
+    parser = runner.script_parser("example", "An example study.")
+    parser.add_argument("--seed", type=int, default=None, help="seed of generated data (default 0)")
+    parser.add_argument("--seeds", type=int, default=3, help="seeds per effect")
+    text = " ".join(parser.format_help().split())
+    assert "seed of generated data (default 0)" in text and "None" not in text
+    assert "seeds per effect (default: 3)" in text
+
+
+def test_an_option_given_where_it_does_nothing_is_refused_and_an_absent_one_gets_its_default(capsys):
+    parser = runner.script_parser("example", "An example study.")
+    parser.add_argument("--measured")
+    parser.add_argument("--seed", type=int, default=None)
+    applies = {"seed": (False, "generated data only")}
+    args = parser.parse_args(["--measured", "log.parquet"])
+    runner.refuse_options_that_do_not_apply(parser, args, applies, {"seed": 0})
+    assert args.seed == 0
+    args = parser.parse_args(["--measured", "log.parquet", "--seed", "0"])
+    with pytest.raises(SystemExit) as exit_info:
+        runner.refuse_options_that_do_not_apply(parser, args, applies, {"seed": 0})
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "python studies/example.py: error: --seed applies to generated data only")
+    args = parser.parse_args(["--seed", "7"])
+    runner.refuse_options_that_do_not_apply(parser, args, {"seed": (True, "generated data only")}, {"seed": 0})
+    assert args.seed == 7
 
 
 @pytest.mark.skipif(importlib.util.find_spec("ray") is not None, reason="Ray is installed here")

@@ -77,10 +77,20 @@ class StudyParser(argparse.ArgumentParser):
         fail(self.prog, message)
 
 
+class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Help that shows each option's default, except None: such an option's help says what happens
+    without it (an option whose default depends on the input, or that is off unless given)."""
+
+    def _get_help_string(self, action):
+        if action.default is None:
+            return action.help
+        return super()._get_help_string(action)
+
+
 def script_parser(name: str, description: str) -> StudyParser:
     """A parser for ``python studies/NAME.py`` without the shared study options."""
     return StudyParser(prog=f"python studies/{name}.py", description=description.strip().splitlines()[0],
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                       formatter_class=DefaultsHelpFormatter)
 
 
 def study_parser(name: str, description: str) -> StudyParser:
@@ -193,6 +203,33 @@ def names(known: Sequence[str], what: str) -> Callable[[str], tuple[str, ...]]:
 
     parse.__name__ = what  # argparse names the type in its messages
     return parse
+
+
+def refuse_options_that_do_not_apply(parser: argparse.ArgumentParser, args: argparse.Namespace,
+                                      applies: dict[str, tuple[bool, str]], defaults: dict[str, Any]) -> None:
+    """Refuse an option given with an input it does nothing for, then fill in the defaults.
+
+    Parameters
+    ----------
+    parser, args
+        The parser and what it parsed. The options named in ``applies`` must have the parser default
+        None, so that a given option can be told from an absent one.
+    applies
+        Option (its ``args`` attribute) -> (whether it applies to this input, where it applies, as
+        the error message says it: "--seed applies to WHERE").
+    defaults
+        Option -> its value when not given.
+
+    A seed or a record length given with recorded data would otherwise be dropped without a word, and
+    the user could believe that the analysis used it. Exits with a one-line usage error (status 2)
+    naming the first such option.
+    """
+    for name, (applicable, where) in applies.items():
+        if getattr(args, name) is not None and not applicable:
+            parser.error(f"--{name.replace('_', '-')} applies to {where}")
+    for name, value in defaults.items():
+        if getattr(args, name) is None:
+            setattr(args, name, value)
 
 
 # ---------------------------------------------------------------------------------------------
