@@ -14,8 +14,9 @@ ROS bags, or a folder of either) it always starts from the same structure, the c
 ``STARTING_STRUCTURE`` identified on the first half of the record, and screens the same library
 ``LIBRARY`` (:mod:`studies.common.discrepancy_runs`); it takes no seed and knows nothing of how the
 data were made (``--seed``, ``--duration`` or ``--size-factor`` given with it is refused, as is any
-option given with an input it does nothing for). ``--max-rate HZ`` keeps every k-th row of a faster RAVEN-II log first (its thresholds
-were set on 30 Hz logs, and its cost grows with the rows). ``--backfit-rounds N`` allows N rounds
+option given with an input it does nothing for). ``--max-rate HZ`` keeps every k-th row of a
+faster RAVEN-II log first (its thresholds were set on 30 Hz logs, and its cost grows with the
+rows). ``--backfit-rounds N`` allows N rounds
 of re-identifying the starting structure around a candidate instead of thirty (``report.json``'s
 ``backfit_capped`` names the fits the cap cut short; with ``--hidden-effect`` the oracle gets the
 same cap). ``--max-effects N`` stops the search once it has named N effects instead of four, without

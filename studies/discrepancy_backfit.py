@@ -15,8 +15,10 @@ shrink, whether the residual left was flagged unexplained (its largest repeating
 the named effects' fitted values beside the generator's, which backfits were still lowering the
 residual at the cap (``DiscrepancyResult.backfit_capped``) and the analysis's CPU time, then the
 floor bound of the record (``studies/discrepancy_floor.py``). With
-``--oracle`` it fits the generator's structure with each cap too (``oracle``). It knows the
-generator only to print its values; every analysis runs on the file.
+``--oracle`` it fits the generator's structure with each cap too (``oracle``). With ``--patience N``
+the backfit goes on past up to N rounds in a row that do not lower the residual, from where each
+ended, and keeps the best (``WorkflowSettings.backfit_patience``; the workflow's default is 0). It
+knows the generator only to print its values; every analysis runs on the file.
 
 Run: ``python studies/discrepancy_backfit.py --hidden-effect capstan_friction --seed 34`` (two
 twenty-minute analyses, about ten minutes on one core).
@@ -91,6 +93,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--oracle", action="store_true", help="fit the generator's structure with each cap too")
     parser.add_argument("--accelerate", action="store_true",
                         help="with WorkflowSettings.backfit_acceleration (a round from where the rounds head)")
+    parser.add_argument("--patience", type=non_negative_int, default=0,
+                        help="with WorkflowSettings.backfit_patience: rounds in a row that may fail to lower the "
+                             "residual before the backfit stops (0: the workflow's default, the first ends it)")
     parser.add_argument("--out", type=Path, default=None, help="write the summaries to this JSON file")
     args = parser.parse_args(argv)
 
@@ -99,17 +104,20 @@ def main(argv: list[str] | None = None) -> dict:
     payload = HIDDEN_PAYLOAD_KG * args.size_factor if "payload" in hidden else 0.0
     truth = {name: true_values(generator, name, payload) for name in hidden}
     out = {"hidden_effect": list(hidden), "seed": args.seed, "duration_s": args.duration, "accelerate": args.accelerate,
+           "patience": args.patience,
            "size_factor": args.size_factor, "generator_values": truth, "runs": {}}
     with tempfile.TemporaryDirectory() as folder:
         path = write_measured(dataset, folder)
         for cap in args.rounds:
             start = time.process_time()
-            settings = WorkflowSettings(backfit_rounds=cap, backfit_acceleration=args.accelerate)
+            settings = WorkflowSettings(backfit_rounds=cap, backfit_acceleration=args.accelerate,
+                                        backfit_patience=args.patience)
             result, *_ = run_on_raven_dataset(read_measured(path), settings=settings)
             runs = {"workflow": summary(result, time.process_time() - start)}
             if args.oracle:
                 start = time.process_time()
-                runs["oracle"] = summary(oracle(path, hidden, backfit_rounds=cap, backfit_acceleration=args.accelerate),
+                runs["oracle"] = summary(oracle(path, hidden, backfit_rounds=cap, backfit_acceleration=args.accelerate,
+                                                backfit_patience=args.patience),
                                          time.process_time() - start)
             out["runs"][cap] = runs
             for label, s in runs.items():

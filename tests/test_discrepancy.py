@@ -419,6 +419,47 @@ def test_a_backfit_cut_by_its_last_allowed_round_is_reported_and_one_that_stoppe
     assert runs[0.0].backfit_capped == ("hysteresis",) and runs[0.9].backfit_capped == ()
 
 
+@pytest.mark.xdist_group("discrepancy-backfit")
+@pytest.mark.parametrize("patience, backfit_calls, kept_call, kept_rounds", [(0, 2, 1, 1), (2, 6, 3, 2)])
+def test_patience_lets_the_backfit_go_on_past_rounds_that_do_not_lower_the_residual_and_keeps_the_best(
+        short_hysteresis, monkeypatch, patience, backfit_calls, kept_call, kept_rounds):
+    # the rounds' residuals are scripted: 9, then 9.5 (worse), 8 (best), then 8.5, 8.6, 8.7, 8.8 (all
+    # worse than 8). Patience 0 stops at the first worse round. Patience 2 goes on from the 9.5
+    # round, keeps the 8 round, counts the worse rounds again from there and stops at the third in
+    # a row (without the new count it would stop at 8.6, the third worse round in all)
+    import simulation.discrepancy.workflow as workflow
+    from simulation.discrepancy import run_workflow
+    from studies.common.discrepancy_runs import raven_library
+
+    signals, split, base, model = short_hysteresis
+    scripted = iter([1.0, 9e-6, 9.5e-6, 8e-6, 8.5e-6, 8.6e-6, 8.7e-6, 8.8e-6])  # the first: the fit before the rounds
+    calls = []
+
+    def fit(candidate, start, *args, initial=None, **options):
+        if candidate.name != "hysteresis":
+            return real(candidate, start, *args, initial=initial, **options)
+        calls.append((np.asarray(initial, dtype=float), np.full(candidate.n_parameters, float(len(calls)))))
+        return calls[-1][1], start, next(scripted)
+
+    real = workflow.fit_candidate
+    monkeypatch.setattr(workflow, "fit_candidate", fit)
+    candidates = raven_library(signals, ("hysteresis",))
+    settings = WorkflowSettings(max_iterations=1, accept_all=True, backfit_rounds=7, backfit_patience=patience)
+    (score,) = run_workflow(model, signals, split, settings, candidates=candidates, base=base).iterations[0].scores
+    assert len(calls) == 1 + backfit_calls
+    assert (score.backfit_rounds, score.backfit_capped) == (kept_rounds, False)
+    assert score.values == {k: np.asarray(v).tolist() for k, v in candidates[0].unpack(calls[kept_call][1]).items()}
+    # each round starts from the round before it, kept or not
+    for before, after in zip(calls[1:], calls[2:]):
+        np.testing.assert_array_equal(after[0], before[1])
+
+
+def test_backfit_patience_is_a_count_of_rounds():
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="backfit_patience must be an integer of at least 0"):
+            WorkflowSettings(backfit_patience=bad)
+
+
 def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
     from studies.common.discrepancy_report import write_report
 

@@ -187,6 +187,7 @@ IN_PROCESS_MISTAKES = [
     ("discrepancy_backfit", ["--hidden-effect", "magic"], "invalid choice: 'magic'"),
     ("discrepancy_backfit", ["--hidden-effect", "backlash", "--rounds", "6,x"], "--rounds"),
     ("discrepancy_backfit", ["--hidden-effect", "backlash", "--rounds", "6,-1"], "--rounds"),
+    ("discrepancy_backfit", ["--hidden-effect", "backlash", "--patience", "-1"], "argument --patience: must be >= 0"),
     ("discrepancy_replay_fidelity", ["--hidden-effect", "magic"], "invalid choice: 'magic'"),
     ("discrepancy_replay_fidelity", ["--hidden-effect", "none", "--extra-coulomb", "0,0"],
      "argument --extra-coulomb: must be three finite numbers >= 0 separated by commas, got '0,0'"),

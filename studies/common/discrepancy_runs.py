@@ -597,14 +597,15 @@ def floor_bound(floor, gap_before, units) -> float:
 
 
 def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rounds,
-           backfit_acceleration: bool = False) -> DiscrepancyResult:
+           backfit_acceleration: bool = False, backfit_patience: int = 0) -> DiscrepancyResult:
     """The generator's true structure fitted to the same fit part of the same file.
 
     The starting structure is identified as in the blind analysis, then every hidden effect is
     added with its parameters fitted (never given) by the workflow's own steps, whatever it scores.
     Its held-out gap is what a model of the right structure closes by those steps, with at most
-    ``backfit_rounds`` backfit rounds, accelerated with ``backfit_acceleration`` (the workflow's
-    defaults unless given).
+    ``backfit_rounds`` backfit rounds, accelerated with ``backfit_acceleration``, going on past
+    ``backfit_patience`` rounds in a row that do not lower the residual (the workflow's defaults
+    unless given).
     """
     hidden = check_hidden(hidden)
     dataset = read_measured(path)
@@ -613,7 +614,8 @@ def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rou
     base = raven_base_identifier(dataset, split.fit, STARTING_STRUCTURE)
     model = base.identify(STARTING_STRUCTURE, None)
     settings = WorkflowSettings(accept_all=True, max_iterations=len(hidden), screen_top=max(len(hidden), 1),
-                                backfit_rounds=backfit_rounds, backfit_acceleration=backfit_acceleration)
+                                backfit_rounds=backfit_rounds, backfit_acceleration=backfit_acceleration,
+                                backfit_patience=backfit_patience)
     return run_workflow(model, signals, split, settings, candidates=raven_library(signals, hidden), base=base,
                         controller=controller_of(dataset))
 
