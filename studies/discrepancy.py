@@ -149,7 +149,7 @@ def joint_numbers(text: str) -> tuple[int, ...]:
 
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
             progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None,
-            max_effects: int | None = None, plant_refit: bool = False):
+            max_effects: int | None = None, plant_refit: bool = False, backfit_patience: int | None = None):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     The analysis's last step scores its starting and final models with the plant replay where that
@@ -161,8 +161,9 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     Returns the result, signals, split, plant score and plant refit (None unless asked for).
     ``shown_path`` is the input's name in the report (where the file will be once published);
     ``arm`` is for bags and CSV files (a Parquet dataset file records its own); ``max_rate`` (Hz)
-    thins a faster log first; ``backfit_rounds`` caps the backfit's rounds and ``max_effects`` the
-    effects named instead of the workflow's defaults. The analysis reads ``path`` and nothing else
+    thins a faster log first; ``backfit_rounds`` caps the backfit's rounds, ``max_effects`` the
+    effects named and ``backfit_patience`` the backfit's rounds in a row that may fail to lower the
+    residual, instead of the workflow's defaults. The analysis reads ``path`` and nothing else
     (:func:`~studies.common.discrepancy_runs.analyse_measured`); the report's source counts the rows
     it left out for holding impossible values.
     """
@@ -172,10 +173,12 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     say("identifying the starting model and screening the library...")
     if arm == "left":
         result, signals, split = analyse_measured(path, progress=progress, max_rate=max_rate,
-                                                  backfit_rounds=backfit_rounds, max_effects=max_effects)
+                                                  backfit_rounds=backfit_rounds, max_effects=max_effects,
+                                                  backfit_patience=backfit_patience)
     else:
         result, signals, split = run_on_raven_dataset(read_measured(path, arm, max_rate), progress=progress,
-                                                      settings=analysis_settings(backfit_rounds, max_effects))
+                                                      settings=analysis_settings(backfit_rounds, max_effects,
+                                                                                 backfit_patience))
     source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
               "description": f"RAVEN-II data {Path(shown_path or path).name}"}
     if max_rate is not None:
@@ -216,6 +219,8 @@ def options_that_apply(args) -> dict[str, tuple[bool, str]]:
         "effects": (args.sweep, "--sweep only"),
         "joints": (dvrk, "--measured dVRK data only"),
         "arm": (args.measured is not None and not dvrk, "--measured RAVEN-II data only"),
+        "backfit_patience": (args.hidden_effect is not None or (args.measured is not None and not dvrk),
+                             "--measured RAVEN-II data and --hidden-effect only"),
     }
 
 
@@ -251,6 +256,11 @@ def main(argv=None) -> int:
                         help="--measured RAVEN-II data and --hidden-effect only: at most N backfit rounds instead of "
                              f"the workflow's {WorkflowSettings().backfit_rounds} (report.json's backfit_capped names "
                              "fits the cap cut short)")
+    parser.add_argument("--backfit-patience", type=non_negative_int, default=None, metavar="N",
+                        help="--measured RAVEN-II data and --hidden-effect only: let the backfit go on past up to N "
+                             "rounds in a row that do not lower the fit part's residual, from where each ended, "
+                             f"keeping the best (the workflow's default: {WorkflowSettings().backfit_patience}, the "
+                             "first such round ends it; with --hidden-effect the oracle gets the same)")
     parser.add_argument("--max-effects", type=positive_int, default=None, metavar="N",
                         help="--measured RAVEN-II data and --hidden-effect only: name at most N effects instead of "
                              f"{WorkflowSettings().max_iterations}, and stop there without checking for more "
@@ -308,7 +318,8 @@ def main(argv=None) -> int:
             del dataset
             result, signals, split, plant, refit = analyse(path, study.folder, shown_path=study.final(path),
                                                            progress=progress, backfit_rounds=args.backfit_rounds,
-                                                           max_effects=args.max_effects, plant_refit=args.plant_refit)
+                                                           max_effects=args.max_effects, plant_refit=args.plant_refit,
+                                                           backfit_patience=args.backfit_patience)
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result,
                                     args.size_factor, args.log_rate, plant, signals, split)
         elif args.ablate is not None:
@@ -346,7 +357,8 @@ def main(argv=None) -> int:
                                                                progress=progress, max_rate=args.max_rate,
                                                                backfit_rounds=args.backfit_rounds,
                                                                max_effects=args.max_effects,
-                                                               plant_refit=args.plant_refit)
+                                                               plant_refit=args.plant_refit,
+                                                               backfit_patience=args.backfit_patience)
             except NotIdentifiableError as error:
                 raise UsageError(f"{args.measured} cannot be analysed: {one_line(error)}") from error
         study.publish()

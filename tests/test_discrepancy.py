@@ -280,12 +280,12 @@ def test_generation_and_analysis_meet_only_through_the_file(cli_runs, tmp_path):
     from studies.discrepancy import main
 
     # the analysis takes a path and nothing else (besides whether to draw a progress bar, the
-    # highest log rate to analyse at, the backfit's round cap and the most effects to name, all about
-    # the analysis, none about what was generated)
+    # highest log rate to analyse at, the backfit's round cap, the most effects to name and the
+    # backfit's patience, all about the analysis, none about what was generated)
     parameters = inspect.signature(analyse_measured).parameters
-    assert list(parameters) == ["path", "progress", "max_rate", "backfit_rounds", "max_effects"]
-    assert all(parameters[name].kind is inspect.Parameter.KEYWORD_ONLY
-               for name in ("progress", "max_rate", "backfit_rounds", "max_effects"))
+    options = ("progress", "max_rate", "backfit_rounds", "max_effects", "backfit_patience")
+    assert list(parameters) == ["path", *options]
+    assert all(parameters[name].kind is inspect.Parameter.KEYWORD_ONLY for name in options)
     # the record with nothing hidden, the cheapest of the command-line runs to analyse again
     generated = cli_runs("none")
     copy = tmp_path / "elsewhere" / "measured.parquet"
@@ -480,7 +480,7 @@ def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
     assert all(isinstance(it["rivals"], dict) for it in report["iterations"])
     assert len(report["residual_structure"]) == 2  # checked after the named effects too
     # generic data have no base identification to backfit against
-    assert report["backfit_capped"] == [] and report["backfit_rounds"] is None
+    assert report["backfit_capped"] == [] and report["backfit_rounds"] is None and report["backfit_patience"] is None
     assert all(c["backfit_rounds"] == 0 and c["backfit_capped"] is False
                for it in report["iterations"] for c in it["candidates"])
     # 30 s of generic data: the short-record warning is about the RAVEN-II starting structure only
@@ -1183,10 +1183,13 @@ def test_the_backfit_cap_asked_on_the_command_line_reaches_the_blind_analysis(mo
     monkeypatch.setattr(command, "check_analysable", lambda dataset: None)
     monkeypatch.setattr(command, "analyse", stop)
     (tmp_path / "log.parquet").write_bytes(b"")
-    for extra, cap in (([], None), (["--backfit-rounds", "12"], 12)):
+    for extra, cap, patience in (([], None, None), (["--backfit-rounds", "12"], 12, None),
+                                 (["--backfit-patience", "2"], None, 2)):
         with pytest.raises(Stop):
             command.main(["--measured", str(tmp_path / "log.parquet"), "--out", str(tmp_path / "out"), *extra])
-        assert asked[-1]["backfit_rounds"] == cap
+        assert asked[-1]["backfit_rounds"] == cap and asked[-1]["backfit_patience"] == patience
+    assert runs.analysis_settings(backfit_patience=2) == WorkflowSettings(backfit_patience=2)
+    assert runs.analysis_settings() == WorkflowSettings()
 
 
 @pytest.fixture(scope="module")

@@ -273,6 +273,7 @@ class DiscrepancyResult:
     whose backfit was still lowering the fit part's residual at its last allowed round
     (``backfit_rounds``, the cap of this run, None without a base identifier to backfit against):
     their fit, and the shrink, may stop short of where more rounds would take them.
+    ``backfit_patience`` is the run's ``WorkflowSettings.backfit_patience`` (None without a base).
     ``search_capped`` is true when the search named ``max_effects`` effects (the run's
     ``WorkflowSettings.max_iterations``) and stopped there: it did not check whether the data hold
     more.
@@ -302,6 +303,7 @@ class DiscrepancyResult:
     controller: ControllerCheck | None = None
     backfit_capped: tuple[str, ...] = ()
     backfit_rounds: int | None = None
+    backfit_patience: int | None = None
     parameter_bounds: dict = field(default_factory=dict)
     max_effects: int | None = None
     search_capped: bool = False
@@ -836,6 +838,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         controller=controller_check,
         backfit_capped=tuple(s.name for it in iterations for s in it.scores if s.name == it.named and s.backfit_capped),
         backfit_rounds=settings.backfit_rounds if base is not None else None,
+        backfit_patience=settings.backfit_patience if base is not None else None,
         parameter_bounds=parameter_bounds,
         max_effects=settings.max_iterations,
         search_capped=len(iterations) == settings.max_iterations and (not iterations or iterations[-1].named is not None),

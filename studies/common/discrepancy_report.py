@@ -270,6 +270,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "signature": list(result.signature),
         "residual_structure": structure_shares(result),
         "backfit_rounds": result.backfit_rounds,
+        "backfit_patience": result.backfit_patience,
         "backfit_capped": list(result.backfit_capped),
         "max_effects": result.max_effects,
         "search_capped": bool(result.search_capped),
@@ -573,7 +574,7 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
 
     report_path = Path(out) / "report.json"
     document = json.loads(report_path.read_text())
-    fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds)
+    fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds, backfit_patience=result.backfit_patience or 0)
     plant_scored = plant is not None and plant.applies
     if not hidden:
         floor = result.gap_before

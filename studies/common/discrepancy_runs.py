@@ -346,27 +346,30 @@ def thinned(dataset, max_rate: float | None):
     return dataset.select(keep)
 
 
-def analysis_settings(backfit_rounds: int | None = None, max_effects: int | None = None) -> WorkflowSettings:
-    """The default :class:`WorkflowSettings`, with at most ``backfit_rounds`` backfit rounds and at
-    most ``max_effects`` named effects (``max_iterations``) when given."""
-    changes = {"backfit_rounds": backfit_rounds, "max_iterations": max_effects}
+def analysis_settings(backfit_rounds: int | None = None, max_effects: int | None = None,
+                      backfit_patience: int | None = None) -> WorkflowSettings:
+    """The default :class:`WorkflowSettings`, with at most ``backfit_rounds`` backfit rounds, at
+    most ``max_effects`` named effects (``max_iterations``) and a backfit that goes on past
+    ``backfit_patience`` rounds in a row that do not lower the residual, when given."""
+    changes = {"backfit_rounds": backfit_rounds, "max_iterations": max_effects, "backfit_patience": backfit_patience}
     return WorkflowSettings(**{k: v for k, v in changes.items() if v is not None})
 
 
 def analyse_measured(path, *, progress: bool = False, max_rate: float | None = None,
-                     backfit_rounds: int | None = None,
-                     max_effects: int | None = None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+                     backfit_rounds: int | None = None, max_effects: int | None = None,
+                     backfit_patience: int | None = None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
     """The blind analysis of RAVEN-II data: all it knows is the file (or folder) at ``path``.
 
     Always the same :data:`STARTING_STRUCTURE`, identified on the first half of the record, the
     same :data:`LIBRARY` of candidates and the default :class:`WorkflowSettings`: no seed, no
     generator, no name of what the data may hide. ``max_rate`` (Hz) thins a faster log first
-    (:func:`thinned`); None analyses every row. ``backfit_rounds`` caps the backfit's rounds and
-    ``max_effects`` the effects named instead of the defaults (:func:`analysis_settings`; a search
+    (:func:`thinned`); None analyses every row. ``backfit_rounds`` caps the backfit's rounds,
+    ``max_effects`` the effects named and ``backfit_patience`` lets the backfit go on past rounds
+    that do not lower the residual, instead of the defaults (:func:`analysis_settings`; a search
     that names ``max_effects`` stops without checking for more, ``search_capped``).
     """
     return run_on_raven_dataset(read_measured(path, max_rate=max_rate), progress=progress,
-                                settings=analysis_settings(backfit_rounds, max_effects))
+                                settings=analysis_settings(backfit_rounds, max_effects, backfit_patience))
 
 
 SHORT_RECORD_S = 60.0
