@@ -202,7 +202,7 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
 
 
 OPTION_DEFAULTS = {"seed": 0, "seeds": 3, "duration": DEFAULT_RECORD_S, "size_factor": 1.0,
-                   "joints": (4, 5, 6), "arm": "left"}
+                   "joints": (4, 5, 6), "arm": "left", "log_rate": LOG_RATE, "plant_refit": False}
 """Values of the options that apply to some inputs only, when not given (their parser default is
 None, so that a given option can be told from an absent one)."""
 
@@ -211,16 +211,24 @@ def options_that_apply(args) -> dict[str, tuple[bool, str]]:
     """Which of the input-dependent options apply to this run's input, and where each applies."""
     generated = args.hidden_effect is not None or args.ablate is not None or args.sweep
     dvrk = args.measured is not None and is_dvrk_folder(args.measured)
+    raven_measured = args.measured is not None and not dvrk
+    analysed_blind = (args.hidden_effect is not None or raven_measured,
+                      "--measured RAVEN-II data and --hidden-effect only")
     return {
+        "log_rate": (args.hidden_effect is not None,
+                     "--hidden-effect only: it is the rate of the data that option generates"),
+        "max_rate": (raven_measured, "--measured RAVEN-II data only"),
+        "backfit_rounds": analysed_blind,
+        "max_effects": analysed_blind,
+        "plant_refit": analysed_blind,
+        "backfit_patience": analysed_blind,
         "seed": (generated, "generated data (--hidden-effect, --ablate, --sweep): measured data carry no seed"),
         "seeds": (args.sweep, "--sweep only"),
         "duration": (generated, "generated data (--hidden-effect, --ablate, --sweep) only"),
         "size_factor": (args.hidden_effect is not None or args.sweep, "--hidden-effect and --sweep only"),
         "effects": (args.sweep, "--sweep only"),
         "joints": (dvrk, "--measured dVRK data only"),
-        "arm": (args.measured is not None and not dvrk, "--measured RAVEN-II data only"),
-        "backfit_patience": (args.hidden_effect is not None or (args.measured is not None and not dvrk),
-                             "--measured RAVEN-II data and --hidden-effect only"),
+        "arm": (raven_measured, "--measured RAVEN-II data only"),
     }
 
 
@@ -246,7 +254,7 @@ def main(argv=None) -> int:
     parser.add_argument("--size-factor", type=positive_float, default=None,
                         help="--hidden-effect and --sweep only: generate the hidden effect at this multiple of its "
                              "default size (default 1: the size its source gives)")
-    parser.add_argument("--log-rate", type=positive_float, default=LOG_RATE, metavar="HZ",
+    parser.add_argument("--log-rate", type=positive_float, default=None, metavar="HZ",
                         help="--hidden-effect only: log the generated robot state (and the ground truth, at least "
                              f"at its {TRUTH_RATE:g} Hz) at this rate instead of the robot's {LOG_RATE:g} Hz")
     parser.add_argument("--max-rate", type=positive_float, default=None, metavar="HZ",
@@ -265,7 +273,7 @@ def main(argv=None) -> int:
                         help="--measured RAVEN-II data and --hidden-effect only: name at most N effects instead of "
                              f"{WorkflowSettings().max_iterations}, and stop there without checking for more "
                              "(report.json's search_capped says whether it stopped at N)")
-    parser.add_argument("--plant-refit", action="store_true",
+    parser.add_argument("--plant-refit", action="store_true", default=None,
                         help="--measured RAVEN-II data and --hidden-effect only: refit a named backlash, hysteresis or "
                              "drift with the plant replay where it scores the analysis, from the workflow's values (up "
                              f"to {PLANT_REFIT_EVALUATIONS} replays of the fit part, about ten minutes on twenty), "
@@ -281,19 +289,6 @@ def main(argv=None) -> int:
                         help="no progress bars (nor, when stderr is not a terminal, a line per finished sweep run)")
     with StudyRun(parser, argv) as study:
         args = study.args
-        if args.log_rate != LOG_RATE and args.hidden_effect is None:
-            parser.error("--log-rate applies to --hidden-effect only: it is the rate of the data that option generates")
-        if args.max_rate is not None and (args.measured is None or is_dvrk_folder(args.measured)):
-            parser.error("--max-rate applies to --measured RAVEN-II data only")
-        if args.backfit_rounds is not None and (args.hidden_effect is None and (
-                args.measured is None or is_dvrk_folder(args.measured))):
-            parser.error("--backfit-rounds applies to --measured RAVEN-II data and --hidden-effect only")
-        if args.max_effects is not None and (args.hidden_effect is None and (
-                args.measured is None or is_dvrk_folder(args.measured))):
-            parser.error("--max-effects applies to --measured RAVEN-II data and --hidden-effect only")
-        if args.plant_refit and (args.hidden_effect is None and (
-                args.measured is None or is_dvrk_folder(args.measured))):
-            parser.error("--plant-refit applies to --measured RAVEN-II data and --hidden-effect only")
         refuse_options_that_do_not_apply(parser, args, options_that_apply(args), OPTION_DEFAULTS)
         progress = not args.no_progress and sys.stderr.isatty()
         if args.merge_sweeps:

@@ -137,6 +137,8 @@ IN_PROCESS_MISTAKES = [
     ("discrepancy", ["--hidden-effect", "none", "--log-rate", "0"], "argument --log-rate: must be > 0, got 0"),
     ("discrepancy", ["--measured", "{tmp}/empty", "--log-rate", "100"], "--log-rate applies to --hidden-effect only"),
     ("discrepancy", ["--sweep", "--log-rate", "100"], "--log-rate applies to --hidden-effect only"),
+    # refused even at the robot's own rate: what matters is that it was given
+    ("discrepancy", ["--measured", "{tmp}/empty", "--log-rate", "30"], "--log-rate applies to --hidden-effect only"),
     ("discrepancy", ["--hidden-effect", "none", "--max-rate", "30"], "--max-rate applies to --measured RAVEN-II data"),
     ("discrepancy", ["--measured", "{tmp}/empty", "--max-rate", "-30"], "argument --max-rate: must be > 0"),
     ("discrepancy", ["--hidden-effect", "none", "--backfit-rounds", "-1"], "argument --backfit-rounds"),
