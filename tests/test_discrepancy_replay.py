@@ -15,7 +15,7 @@ from simulation.discrepancy import MeasuredSignals
 from simulation.discrepancy.candidates import RAVEN_LIBRARY, library
 from simulation.discrepancy.replay import MOTOR_STICTION_SPEED, RavenModel
 from simulation.model.effects import Hysteresis, MotorFriction, TransmissionError
-from studies.common.discrepancy_runs import generate_measured, generator_parameters
+from studies.common.discrepancy_runs import generate_measured, generator_parameters, raven_library
 
 
 @pytest.fixture(scope="module")
@@ -338,3 +338,26 @@ def test_column_means_are_numpys_to_the_last_bit_in_every_layout(layout):
         values = {"C": table, "rows of C": table[rows // 3:], "F": np.asfortranarray(table),
                   "every other row": table[::2]}[layout]
         assert np.array_equal(column_means(values), values.mean(axis=0))
+
+
+def test_the_shape_study_holds_the_candidates_shape_and_lag_only_within_its_block(record):
+    from studies.discrepancy_hysteresis_shape import hysteresis_candidate
+
+    signals, model, _ = record
+    theta = np.array([10.0, 4.0, 200.0, 3e-3, 4e-3, 1e-4, 0.9, 0.9, 0.9])
+
+    def fitted_shape_range_and_built():
+        (candidate,) = raven_library(signals, ("hysteresis",))
+        lower, upper, _, _ = candidate.bounds()
+        return lower[6:], upper[6:], candidate.apply(model, theta).params.effect("hysteresis")
+
+    with hysteresis_candidate(0.4, 0.0):
+        lower, upper, built = fitted_shape_range_and_built()
+        np.testing.assert_array_equal(lower, 0.4)
+        np.testing.assert_array_equal(upper, 0.4)
+        np.testing.assert_array_equal(built.response_time, 0.0)
+    lower, upper, built = fitted_shape_range_and_built()
+    np.testing.assert_array_equal(lower, 0.0)
+    np.testing.assert_array_equal(upper, 1.0)
+    np.testing.assert_array_equal(built.response_time, Hysteresis().response_time)
+    np.testing.assert_allclose(built.gamma / built.beta, 0.9)

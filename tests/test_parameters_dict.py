@@ -215,6 +215,8 @@ def _with(path: tuple, value) -> dict:
         (_with(("effects", "cable_stretch", "stiffness"), [0.0, 2.0, 3.0]),
          r"effects\.cable_stretch: cable stiffness and hardening stretch must be positive"),
         (_with(("effects", "hysteresis"), [1.0]), r"effects\.hysteresis must be an object of fields, got list"),
+        (_with(("effects", "hysteresis", "response_time"), [0.05, -0.01, 0.05]),
+         r"effects\.hysteresis: response_time must be non-negative"),
         (_with(("constants", "kp"), [0.3] * 6), r"constants\.kp must be a list of 7 numbers, got 6"),
         (_with(("constants", "cable_coupling"), [0.1, float("nan"), 0.0]),
          r"constants\.cable_coupling\[1\] must be finite"),

@@ -148,6 +148,43 @@ def test_hysteresis_makes_the_error_a_loop_in_tension():
     assert abs(gap0) < 0.3 * abs(gap)
 
 
+def _bouc_wen_of_lagged_stretch(stretch, time, lag, beta, gamma, z0):
+    """The Bouc-Wen state (n = 1) of a stretch series passed through a first-order lag of ``lag``
+    seconds (0: none), integrated in ten explicit sub-steps per sample from ``z0``."""
+    z = np.empty_like(stretch)
+    z[0], smoothed = z0, stretch[0]
+    for k in range(1, time.size):
+        gain = 1.0 if lag == 0 else 1 - np.exp(-(time[k] - time[k - 1]) / lag)
+        new = smoothed + gain * (stretch[k] - smoothed)
+        step, smoothed, state = (new - smoothed) / 10, new, z[k - 1]
+        for _ in range(10):
+            state += step * (1 - beta * np.sign(step) * state - gamma * abs(state))
+        z[k] = state
+    return z
+
+
+@pytest.mark.parametrize("lag", [0.0, 0.05, 0.2])
+def test_the_hysteresis_state_follows_the_stretch_lagged_by_its_response_time(lag):
+    params = RavenParameters().only("cable_stretch", "gravity_stretch", "hysteresis")
+    hysteresis = params.effect("hysteresis").replace(response_time=np.full(3, lag))
+    robot = powered_on(params.with_effect(hysteresis), seed=0, log_rate=1000.0, truth_rate=1000.0)
+    robot.move_to(POSE, 2.0)
+    robot.hold(0.5)
+    rec = robot.run(sweep(1, np.deg2rad(30), 2.0, 2.0))
+    # the first logged row precedes the first step; the lag forgets where it started within 1.5 s
+    stretch, z, time = rec.channel("cable_stretch")[1:, 1], rec.channel("hysteresis_state")[1:, 1], rec.time[1:]
+    late = time > time[0] + 1.5
+    assert np.ptp(z[late]) > 1.9 / (hysteresis.beta[1] + hysteresis.gamma[1])  # the loop saturates both ways
+
+    def misfit(guess):
+        predicted = _bouc_wen_of_lagged_stretch(stretch, time, guess, hysteresis.beta[1], hysteresis.gamma[1], z[0])
+        return np.sqrt(np.mean((z[late] - predicted[late]) ** 2)) / np.ptp(z[late])
+
+    assert misfit(lag) < 0.01
+    for wrong in {0.0, 0.05, 0.2} - {lag}:
+        assert misfit(wrong) > 0.05
+
+
 def test_homing_registers_the_stretch_under_homing_tension_and_rehoming_shifts_it():
     exact = RavenParameters().only("cable_stretch", "gravity_stretch", "homing_offset")
     exact = exact.with_effect(exact.effect("homing_offset").replace(repeatability=np.zeros(3)))

@@ -67,6 +67,8 @@ SCRIPT_MISTAKES = [
     ("discrepancy_convergence", ["--effect", "coupling"], "is in the starting structure"),
     ("discrepancy_unmodelled", ["--amplitude", "-0.01"], "--amplitude"),
     ("discrepancy_homing", ["--duration", "1e9"], "at most 21600 s (six hours)"),
+    ("discrepancy_hysteresis_shape", ["--pin-shape", "1.5"], "the candidate's range"),
+    ("discrepancy_hysteresis_shape", ["--response-time", "nan"], "--response-time"),
     ("homing", ["--out", "{tmp}/a_file.txt"], "is a file"),
     ("input_features", ["--hours", "-1"], "--hours"),
     ("long_operation", ["--kinds", "idle,sleeping"], "sleeping"),

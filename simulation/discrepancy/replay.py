@@ -11,7 +11,8 @@ inertia), the cable law turns the loads into stretch, and the prediction is
 with ``A`` the cable coupling (each motor's column over ``1 + ratio_error`` with a transmission
 error, as in the simulator's engine), evaluated sample by sample with the model layer's laws
 (:mod:`simulation.model.laws`: cable tension and its inverse, tangent stiffness, gravity load,
-play, Bouc-Wen hysteresis). The replay keeps no state of the links' vibration on their cables: the
+play, Bouc-Wen hysteresis, whose state follows the logged stretch sample by sample: the replay has
+no ``Hysteresis.response_time``). The replay keeps no state of the links' vibration on their cables: the
 links' inertia enters through their measured accelerations. That vibration is not far above the
 30 Hz log (at zero tension, about 3 Hz for the shoulder and the elbow and 15 Hz for the insertion
 axis, from the kinematics' mass matrix at one pose and the default cable stiffness), which is one

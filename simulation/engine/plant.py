@@ -35,16 +35,16 @@ from kinematics.gravity_closed_form import gravity_torques_fast, mass_matrix_fas
 from simulation.engine.controller import tool_joints_from_motors
 from simulation.engine.tables import (
     E_BACKLASH, E_CAPSTAN, E_COULOMB, E_DRIFT, E_GRAVITY, E_HYSTERESIS, E_MOTORFRICTION, E_RUNOUT, E_VISCOUS,
-    R_BL, R_BM, R_CAPSTAN, R_DAMP, R_DC, R_DK, R_DLG, R_DVREF, R_FC, R_FV, R_GEAR, R_GSCALE, R_HB, R_HG, R_HK,
+    R_BL, R_BM, R_CAPSTAN, R_DAMP, R_DC, R_DK, R_DLG, R_DVREF, R_FC, R_FV, R_GEAR, R_GSCALE, R_HB, R_HG, R_HK, R_HT,
     R_JM, R_K1, R_K3, R_KTOOL, R_MFC, R_MLOSS, R_RUNOUT, R_STOP_HI, R_STOP_LO, R_TOOL_FC, R_TOOL_FV, R_VC, X_DOSE,
     X_MF, X_PB, X_Q,
     X_QD, X_QF, X_QT, X_SF, X_U, X_UD, X_Z,
 )
 from simulation.model.laws import bouc_wen_rate, fatigue_rate, friction_force, play, stiffness_tension
 
-HYSTERESIS_RESPONSE_TIME = 0.05
-"""Time constant (s) over which the cable's hysteresis follows its stretch (see ``Hysteresis``) and
-its fatigue follows the joint's travel (see ``Drift``)."""
+FATIGUE_RESPONSE_TIME = 0.05
+"""Time constant (s) over which the cable's fatigue follows the joint's travel (see ``Drift``); the
+hysteresis follows the stretch over its own ``Hysteresis.response_time``."""
 
 MASS_UPDATE_TICKS = 4
 """Servo ticks between refreshes of the links' inertia matrix (it moves < 0.01 % in 4 ms)."""
@@ -221,7 +221,9 @@ def elastic_cable_step(plant, table, flags, a_true, tr, h, tau_u, grav, mass, in
             + table[R_DAMP, i] * srate
         if flags[E_HYSTERESIS] == 1:
             tension[i] += table[R_HK, i] * plant[X_Z + i]
-            smoothed = plant[X_SF + i] + h / HYSTERESIS_RESPONSE_TIME * (stretch[i] - plant[X_SF + i])
+            # a first-order lag of the stretch; a response time under the sub-step follows it at once
+            lag = table[R_HT, i]
+            smoothed = stretch[i] if lag <= h else plant[X_SF + i] + h / lag * (stretch[i] - plant[X_SF + i])
             mean_rate = (smoothed - plant[X_SF + i]) / h
             plant[X_SF + i] = smoothed
             plant[X_Z + i] += h * bouc_wen_rate(plant[X_Z + i], mean_rate, table[R_HB, i], table[R_HG, i])
@@ -359,7 +361,7 @@ def cable_fatigue(plant, table, flags, h, payload, time_scale):
     if flags[E_DRIFT] == 1:
         for i in range(3):
             # the cable ages with the joint's travel, not with the servo's millisecond chatter
-            smoothed = plant[X_QF + i] + h / HYSTERESIS_RESPONSE_TIME * (plant[X_Q + i] - plant[X_QF + i])
+            smoothed = plant[X_QF + i] + h / FATIGUE_RESPONSE_TIME * (plant[X_Q + i] - plant[X_QF + i])
             travel_rate = (smoothed - plant[X_QF + i]) / h
             plant[X_QF + i] = smoothed
             plant[X_DOSE + i] += h * fatigue_rate(travel_rate, table[R_DVREF, i], table[R_DLG, i],

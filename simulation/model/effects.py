@@ -239,10 +239,12 @@ class Hysteresis(Effect):
         dz/dt = ds/dt - beta * |ds/dt| * z - gamma * ds/dt * |z|,
 
     which saturates at ``z = 1/(beta + gamma)`` (stretch units). The state follows the stretch
-    averaged over 50 ms (the strands slip with the cable's mean stretch, not with the servo's
-    millisecond chatter, which would otherwise dither the loop away). ``stiffness`` in N m/rad, N/m;
-    ``beta`` and ``gamma`` in 1/rad, 1/m. The joint error then traces a loop against the tension
-    that turns smoothly after each reversal (unlike the jump of backlash).
+    averaged over ``response_time`` seconds, a first-order lag, 50 ms by default (the strands slip
+    with the cable's mean stretch, not with the servo's millisecond chatter, which would otherwise
+    dither the loop away); 0 makes it follow the stretch of every plant sub-step. ``stiffness`` in
+    N m/rad, N/m; ``beta`` and ``gamma`` in 1/rad, 1/m; ``response_time`` in s. The joint error then
+    traces a loop against the tension that turns smoothly after each reversal (unlike the jump of
+    backlash).
 
     Size of the defaults: an assumption stated as a loss factor, since no measured loop size of the
     RAVEN-II's cables is among this project's sources (Miyasaka et al. identified the model's form
@@ -261,11 +263,13 @@ class Hysteresis(Effect):
     stiffness: np.ndarray = field(default_factory=lambda: np.array([12.0, 4.0, 200.0]))
     beta: np.ndarray = field(default_factory=lambda: np.array([340.0, 250.0, 12000.0]))
     gamma: np.ndarray = field(default_factory=lambda: np.array([140.0, 100.0, 4700.0]))
+    response_time: np.ndarray = field(default_factory=lambda: np.full(3, 0.05))
 
     def __post_init__(self):
         object.__setattr__(self, "stiffness", _vector(self.stiffness, 3, "stiffness"))
         object.__setattr__(self, "beta", _vector(self.beta, 3, "beta"))
         object.__setattr__(self, "gamma", _vector(self.gamma, 3, "gamma"))
+        object.__setattr__(self, "response_time", _vector(self.response_time, 3, "response_time"))
         if np.any(self.beta + self.gamma <= 0):
             raise ValueError("beta + gamma must be positive")
 

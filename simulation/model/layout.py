@@ -57,6 +57,7 @@ ROWS = (
     Row("hysteresis_stiffness", "hysteresis", "stiffness", unit="N m/rad, N m/rad, N/m"),
     Row("hysteresis_beta", "hysteresis", "beta", unit="1/rad, 1/rad, 1/m"),
     Row("hysteresis_gamma", "hysteresis", "gamma", unit="1/rad, 1/rad, 1/m"),
+    Row("hysteresis_response_time", "hysteresis", "response_time", unit="s"),
     Row("stiffness_loss", "drift", "stiffness_loss", unit="1/h"),
     Row("creep_rate", "drift", "creep_rate", unit="rad/h, rad/h, m/h"),
     Row("payload_gain", "drift", "payload_gain", unit="1/kg"),
@@ -77,9 +78,9 @@ COLUMN_NAMES = POSITIONING_NAMES
 N_ROWS = len(ROWS)
 
 (STIFFNESS, HARDENING, DAMPING, LOAD_SCALE, COULOMB, VELOCITY_SCALE, VISCOUS, BACKLASH, HYSTERESIS_STIFFNESS,
- HYSTERESIS_BETA, HYSTERESIS_GAMMA, STIFFNESS_LOSS, CREEP_RATE, PAYLOAD_GAIN, REFERENCE_SPEED, RUNOUT,
- CAPSTAN_COEFFICIENT, GRAVITY_MODEL_ERROR, REGISTRATION_OFFSET, REGISTRATION_REPEATABILITY, OFFSET,
- MOTOR_INERTIA, MOTOR_DAMPING) = range(N_ROWS)
+ HYSTERESIS_BETA, HYSTERESIS_GAMMA, HYSTERESIS_RESPONSE_TIME, STIFFNESS_LOSS, CREEP_RATE, PAYLOAD_GAIN,
+ REFERENCE_SPEED, RUNOUT, CAPSTAN_COEFFICIENT, GRAVITY_MODEL_ERROR, REGISTRATION_OFFSET,
+ REGISTRATION_REPEATABILITY, OFFSET, MOTOR_INERTIA, MOTOR_DAMPING) = range(N_ROWS)
 
 
 def row_index(name: str) -> int:

@@ -1,0 +1,174 @@
+"""What sets the fitted Bouc-Wen shape of a hidden hysteresis, and whether the shape holds the shrink short.
+
+A diagnostic, never part of an analysis: it knows the generator. It runs what ``python
+studies/discrepancy.py --hidden-effect hysteresis --seed S --out DIR`` runs (twenty minutes of
+random motion with the hysteresis hidden, written to ``DIR/measured.parquet``, the blind analysis of
+that file scored with the plant, then the oracle and both floors) with up to two changes:
+
+``--response-time T``
+    The generator's hysteresis follows the cable's stretch over T seconds (its
+    ``Hysteresis.response_time``, a first-order lag; 0.05 s by default, 0 at every plant
+    sub-step). The quasi-static replay's Bouc-Wen follows the logged stretch sample by sample
+    whatever T is. The plant replay that scores the final models gives a fitted hysteresis the
+    same T, so that the scorer's plant is the generator's, as it is in the command.
+``--pin-shape X``
+    The library's hysteresis candidate holds its shape ``gamma / beta`` at X (0 to 1) instead of
+    fitting it, in the blind analysis and in the oracle; its stiffness and width are fitted as
+    usual (the report's ``at_bound`` then lists the shape, held at both ends of its range).
+
+Neither changes the analysis's code path: the record reaches it as a file. With neither option the
+run is the command's. Run::
+
+    python studies/discrepancy_hysteresis_shape.py --seed 97 --response-time 0 --out DIR
+    python studies/discrepancy_hysteresis_shape.py --seed 97 --pin-shape 0.4 --out DIR
+
+It prints the named effects, the fitted shape, stiffness and width beside the generator's, the
+first iteration's fit-part gap and BIC, and the shrink (plant and quasi-static) beside the plant
+floor's bound; ``DIR/report.json`` is the command's report with ``response_time_s`` and
+``pinned_shape`` added.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from contextlib import contextmanager
+from dataclasses import replace
+from pathlib import Path
+
+from studies.common.discrepancy_runs import DEFAULT_RECORD_S, record_length
+from studies.common.runner import StudyRun, non_negative_int, script_parser, say
+
+STUDY = "discrepancy_hysteresis_shape"
+
+
+def _between(text: str, high: float, unit: str, why: str = "") -> float:
+    """A finite number from 0 to ``high`` (``unit`` and ``why`` name the range in the error)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value) or not 0.0 <= value <= high:
+        raise argparse.ArgumentTypeError(f"must be between 0 and {high:g}{unit}{why}, got {text}")
+    return value
+
+
+def response_time(text: str) -> float:
+    """A response time in seconds, from 0 to one second."""
+    return _between(text, 1.0, " s")
+
+
+def shape_value(text: str) -> float:
+    """A Bouc-Wen shape ``gamma / beta`` from 0 to 1, the candidate's range."""
+    return _between(text, 1.0, "", " (the candidate's range)")
+
+
+@contextmanager
+def hysteresis_candidate(shape: float | None, lag: float | None):
+    """Within the block, the library's hysteresis candidate holds its shape at ``shape`` (None:
+    fitted) and builds a hysteresis of response time ``lag`` seconds (None: the effect's default)."""
+    from simulation.discrepancy import candidates
+    from simulation.model.effects import Hysteresis
+
+    library, effect = candidates.raven_candidates, candidates.Hysteresis
+
+    def pinned(signals):
+        out = []
+        for candidate in library(signals):
+            if candidate.name == "hysteresis" and shape is not None:
+                blocks = tuple(replace(b, lower=shape, upper=shape, initial=shape) if b.name == "shape" else b
+                               for b in candidate.blocks)
+                candidate = replace(candidate, blocks=blocks)
+            out.append(candidate)
+        return out
+
+    def lagged(**fields):
+        return Hysteresis(response_time=lag, **fields)
+
+    candidates.raven_candidates = pinned
+    if lag is not None:
+        candidates.Hysteresis = lagged
+    try:
+        yield
+    finally:
+        candidates.raven_candidates, candidates.Hysteresis = library, effect
+
+
+def generator_with(lag: float | None):
+    """The virtual RAVEN-II's parameters, its hysteresis of response time ``lag`` (None: default)."""
+    from simulation.model.parameters import RavenParameters
+
+    params = RavenParameters()
+    if lag is None:
+        return params
+    return params.with_effect(replace(params.effect("hysteresis"), response_time=lag))
+
+
+def summary(report: dict) -> dict:
+    """The figures this study prints, from the command's ``report.json``."""
+    first = next(c for c in report["iterations"][0]["candidates"] if c["name"] == "hysteresis")
+    quasi = report.get("quasi_static") or {}
+    return {"named_effects": report["named_effects"], "shrink": report["shrink"],
+            "quasi_static_shrink": quasi.get("shrink", report["shrink"]),
+            "plant_floor_bound": report.get("plant_floor_bound"), "floor_bound": report.get("floor_bound"),
+            "first_fit_gap": first["fit_gap"], "first_bic": first["bic"],
+            "fitted": report["fitted_parameters"].get("hysteresis"), "true": report["true_parameters"]["hysteresis"]}
+
+
+def _values(values) -> str:
+    return ", ".join(f"{v:.3g}" for v in values)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from studies.common.discrepancy_report import add_generator_knowledge
+    from studies.common.discrepancy_runs import generate_measured, write_measured
+    from studies.discrepancy import analyse
+
+    parser = script_parser(STUDY, __doc__)
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the generated data (>= 0)")
+    parser.add_argument("--duration", type=record_length, default=DEFAULT_RECORD_S,
+                        help="record length (s, at most six hours)")
+    parser.add_argument("--response-time", type=response_time, default=None, metavar="T",
+                        help="the generator's hysteresis follows the stretch over T s (0 to 1; "
+                             "without it, the effect's default)")
+    parser.add_argument("--pin-shape", type=shape_value, default=None, metavar="X",
+                        help="the candidate's shape gamma/beta held at X (0 to 1; without it, fitted)")
+    parser.add_argument("--out", type=Path, default=Path("results") / STUDY)
+    with StudyRun(parser, argv) as study:
+        args = study.args
+        say(f"generating {args.duration:.0f} s of motion with hysteresis hidden"
+            + ("" if args.response_time is None else f" (response time {args.response_time:g} s)") + "...")
+        dataset, generator = generate_measured(("hysteresis",), seed=args.seed, duration=args.duration,
+                                               params=generator_with(args.response_time))
+        path = write_measured(dataset, study.folder)
+        del dataset
+        with hysteresis_candidate(args.pin_shape, args.response_time):
+            result, signals, split, plant, _ = analyse(path, study.folder, shown_path=study.final(path))
+            add_generator_knowledge(study.folder, ("hysteresis",), args.seed, args.duration, generator, path,
+                                    result, plant=plant, signals=signals, split=split)
+        report_path = study.folder / "report.json"
+        report = json.loads(report_path.read_text())
+        report["response_time_s"] = float(generator.effect("hysteresis").response_time[0])
+        report["pinned_shape"] = args.pin_shape
+        report_path.write_text(json.dumps(report, indent=1))
+        study.publish()
+    s = summary(report)
+    print(f"response time {report['response_time_s']:g} s; shape "
+          + ("fitted" if args.pin_shape is None else f"pinned at {args.pin_shape:g}"))
+    print(f"named: {', '.join(s['named_effects']) or 'nothing'}")
+    if s["fitted"] is not None:
+        for name in ("shape", "stiffness", "width"):
+            print(f"  {name:9s} fitted {_values(s['fitted'][name])}   generator {_values(s['true'][name])}")
+    print(f"first iteration: fit-part gap {s['first_fit_gap']:.5g}, BIC {s['first_bic']:.0f}")
+    bound = s["plant_floor_bound"]
+    print(f"shrink {100 * s['shrink']:.1f} % (plant; bound {100 * bound:.1f} %), "
+          f"quasi-static {100 * s['quasi_static_shrink']:.1f} % (bound {100 * s['floor_bound']:.1f} %)"
+          if bound is not None else f"shrink {100 * s['shrink']:.1f} %")
+    study.done()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
