@@ -26,6 +26,10 @@ from __future__ import annotations
 
 import importlib
 
+from simulation.numba_cache import clear_stale_caches
+
+clear_stale_caches()
+
 __all__ = [
     "CalibrationDataset",
     "EFFECT_NAMES",

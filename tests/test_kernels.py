@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from simulation import kernels
@@ -36,3 +38,66 @@ def test_an_unknown_group_is_refused_by_name(capsys):
         kernels.main(["servoo"])
     assert stop.value.code == 2
     assert "invalid choice: 'servoo'" in capsys.readouterr().err
+
+
+# The numba cache cleared when a kernel source changes (simulation.numba_cache) ---------------------
+
+
+def test_every_file_that_compiles_a_numba_kernel_is_a_kernel_source():
+    from simulation.numba_cache import KERNEL_SOURCES, ROOT
+
+    packages = ("kinematics", "simulation", "estimators")
+    files = [path for package in packages for path in (ROOT / package).rglob("*.py")]
+    compiling = sorted(str(path.relative_to(ROOT)) for path in files if "@njit" in path.read_text())
+    assert compiling == sorted(KERNEL_SOURCES)
+
+
+@pytest.fixture
+def sources(tmp_path, monkeypatch):
+    """A copy of the kernel sources' layout with a cached kernel and a compiled module beside each."""
+    from simulation.numba_cache import KERNEL_SOURCES
+
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    for name in KERNEL_SOURCES:
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(f"# {name}\n")
+    return tmp_path
+
+
+def _cache(root: Path, source: str, suffix: str) -> Path:
+    folder = (root / source).parent / "__pycache__"
+    folder.mkdir(exist_ok=True)
+    path = folder / f"{Path(source).stem}.kernel-10.py311{suffix}"
+    path.write_bytes(b"cached")
+    return path
+
+
+def test_a_changed_law_clears_the_cached_loop_that_inlines_it_and_nothing_else(sources):
+    from simulation.numba_cache import clear_stale_caches
+
+    loop = _cache(sources, "simulation/engine/loop.py", ".nbc")
+    index = _cache(sources, "simulation/engine/loop.py", ".nbi")
+    module = _cache(sources, "simulation/engine/loop.py", ".pyc")
+    # no stamp yet: what is cached may be of any sources
+    assert set(clear_stale_caches(sources)) == {loop, index}
+    assert module.exists() and not loop.exists()
+    loop, index = (_cache(sources, "simulation/engine/loop.py", s) for s in (".nbc", ".nbi"))
+    assert clear_stale_caches(sources) == []
+    assert loop.exists() and index.exists()
+    # numba would keep the cached loop, whose own file did not change
+    (sources / "simulation/model/laws.py").write_text("# laws, edited\n")
+    assert loop in clear_stale_caches(sources)
+    assert not loop.exists() and not index.exists() and module.exists()
+    assert clear_stale_caches(sources) == []
+
+
+def test_with_numba_cache_dir_the_folders_are_where_numba_caches(sources, monkeypatch, tmp_path):
+    from numba.core.caching import _CacheLocator
+
+    from simulation.numba_cache import KERNEL_SOURCES, cache_folders
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    folders = cache_folders(sources)
+    source = sources / "simulation/engine/plant.py"
+    assert tmp_path / "numba" / _CacheLocator.get_suitable_cache_subpath(str(source)) in folders
+    assert len(folders) == len({(sources / name).parent for name in KERNEL_SOURCES})

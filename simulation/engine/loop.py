@@ -29,8 +29,8 @@ The per-tick functions of the sensors, controller and plant are inlined into :fu
 for divisions): the loop then compiles to one function that hands them its arrays without
 reference counting on each tick. Numba caches each compiled function on its own, and a cached caller
 is not recompiled when only a function it calls or inlines (here or in
-:mod:`simulation.model.laws`) changes: after editing one, clear this package's numba cache files
-(``__pycache__/*.nbi``, ``*.nbc``).
+:mod:`simulation.model.laws`) changes: :mod:`simulation.numba_cache` clears the cached kernels
+whenever any kernel source changes, when :mod:`simulation` is imported.
 """
 
 from __future__ import annotations
