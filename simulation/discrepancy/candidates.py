@@ -202,7 +202,7 @@ def raven_candidates(signals: MeasuredSignals) -> list[Candidate]:
         Candidate("viscous_friction", (ParameterBlock("coefficient", 3, 0.0, 500.0, (0.5, 0.5, 10.0), 0.0,
                                                       LOAD_PER_SPEED_UNITS),),
                   _raven_effect(lambda m, v: ViscousFriction(coefficient=v["coefficient"])), _raven_only),
-        # the effect keeps its default response time, which only the plant replay (scoring) reads
+        # the effect keeps its default response time, which only the plant replay reads (scoring, --plant-refit)
         Candidate("hysteresis", (ParameterBlock("stiffness", 3, 0.0, 1e5, (20.0, 10.0, 1000.0), 0.0,
                                                 LOAD_PER_STRETCH_UNITS),
                                  ParameterBlock("width", 3, 1e-6, 0.05, (1e-2, 1e-2, 1e-3), (1e-2, 1e-2, 1e-3),
