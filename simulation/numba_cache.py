@@ -11,9 +11,10 @@ stamp and compares it with the stamp stored in each of their cache folders (``__
 the source, or the folder under ``NUMBA_CACHE_DIR`` that numba uses when that is set). Where the
 stamp differs or is missing, it deletes that folder's cached kernels (``*.nbi``, ``*.nbc``), then
 writes the new stamp (creating the folder on a fresh checkout, so that kernels cached after it are
-known to be the present sources'). :mod:`simulation` calls it when it is imported, before any kernel is loaded,
-so a process always compiles or loads kernels of the sources it runs. A folder it cannot write is
-left alone (numba then caches in the user's cache folder, keyed on each file as before).
+known to be the present sources'). :mod:`simulation` calls it when it is imported, before any
+kernel is loaded, so a process always compiles or loads kernels of the sources it runs. A folder it
+cannot write is left alone (numba then caches in the user's cache folder, keyed on each file as
+before).
 """
 
 from __future__ import annotations
