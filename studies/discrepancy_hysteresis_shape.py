@@ -30,39 +30,23 @@ floor's bound; ``DIR/report.json`` is the command's report with ``response_time_
 
 from __future__ import annotations
 
-import argparse
 import json
-import math
 import sys
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 
 from studies.common.discrepancy_runs import DEFAULT_RECORD_S, record_length
-from studies.common.runner import StudyRun, non_negative_int, script_parser, say
+from studies.common.runner import StudyRun, non_negative_int, number_between, script_parser, say
 
 STUDY = "discrepancy_hysteresis_shape"
 
 
-def _between(text: str, high: float, unit: str, why: str = "") -> float:
-    """A finite number from 0 to ``high`` (``unit`` and ``why`` name the range in the error)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(value) or not 0.0 <= value <= high:
-        raise argparse.ArgumentTypeError(f"must be between 0 and {high:g}{unit}{why}, got {text}")
-    return value
+response_time = number_between(0.0, 1.0, " s")
+"""A response time in seconds, from 0 to one second."""
 
-
-def response_time(text: str) -> float:
-    """A response time in seconds, from 0 to one second."""
-    return _between(text, 1.0, " s")
-
-
-def shape_value(text: str) -> float:
-    """A Bouc-Wen shape ``gamma / beta`` from 0 to 1, the candidate's range."""
-    return _between(text, 1.0, "", " (the candidate's range)")
+shape_value = number_between(0.0, 1.0, note=" (the candidate's range)")
+"""A Bouc-Wen shape ``gamma / beta`` from 0 to 1, the candidate's range."""
 
 
 @contextmanager
@@ -85,7 +69,7 @@ def hysteresis_candidate(shape: float | None, lag: float | None):
         return out
 
     def lagged(**fields):
-        return Hysteresis(response_time=lag, **fields)
+        return Hysteresis(**{**fields, "response_time": lag})
 
     candidates.raven_candidates = pinned
     if lag is not None:

@@ -168,6 +168,19 @@ def open_fraction(text: str) -> float:
     return value
 
 
+def number_between(low: float, high: float, unit: str = "", note: str = "") -> Callable[[str], float]:
+    """A parser of a finite number from ``low`` to ``high`` (both allowed); its error names the
+    range with ``unit`` (e.g. " s") and ``note`` (e.g. " (the candidate's range)")."""
+
+    def parse(text: str) -> float:
+        value = _number(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be between {low:g} and {high:g}{unit}{note}, got {value:g}")
+        return value
+
+    return parse
+
+
 def existing_path(text: str) -> Path:
     """A file or folder that exists and can be read."""
     path = Path(text)
