@@ -3,7 +3,7 @@
 A diagnostic, never part of an analysis: it knows the generator. It runs what ``python
 studies/discrepancy.py --hidden-effect hysteresis --seed S --out DIR`` runs (twenty minutes of
 random motion with the hysteresis hidden, written to ``DIR/measured.parquet``, the blind analysis of
-that file scored with the plant, then the oracle and both floors) with up to two changes:
+that file scored with the plant, then the oracle and both floors) with up to three changes:
 
 ``--response-time T``
     The generator's hysteresis follows the cable's stretch over T seconds (its
@@ -11,21 +11,28 @@ that file scored with the plant, then the oracle and both floors) with up to two
     sub-step). The quasi-static replay's Bouc-Wen follows the logged stretch sample by sample
     whatever T is. The plant replay that scores the final models gives a fitted hysteresis the
     same T, so that the scorer's plant is the generator's, as it is in the command.
+``--scorer-lag L``
+    The plant replay gives a fitted hysteresis the lag L seconds instead (the candidate's
+    ``candidates.HYSTERESIS_RESPONSE_TIME``, or T above), while the generator keeps its own: how much
+    the plant's scores owe to the scorer sharing the generator's lag. The quasi-static analysis, and
+    so what is named and fitted, does not read it.
 ``--pin-shape X``
     The library's hysteresis candidate holds its shape ``gamma / beta`` at X (0 to 1) instead of
     fitting it, in the blind analysis and in the oracle; its stiffness and width are fitted as
     usual (the report's ``at_bound`` then lists the shape, held at both ends of its range).
 
-Neither changes the analysis's code path: the record reaches it as a file. With neither option the
-run is the command's. Run::
+``--backfit-patience N`` passes the command's option of that name to the blind analysis (and so
+to the oracle). None of these changes the analysis's code path: the record reaches it as a file.
+With none of them the run is the command's. Run::
 
     python studies/discrepancy_hysteresis_shape.py --seed 97 --response-time 0 --out DIR
+    python studies/discrepancy_hysteresis_shape.py --seed 97 --scorer-lag 0.2 --out DIR
     python studies/discrepancy_hysteresis_shape.py --seed 97 --pin-shape 0.4 --out DIR
 
 It prints the named effects, the fitted shape, stiffness and width beside the generator's, the
 first iteration's fit-part gap and BIC, and the shrink (plant and quasi-static) beside the plant
-floor's bound; ``DIR/report.json`` is the command's report with ``response_time_s`` and
-``pinned_shape`` added.
+floor's bound; ``DIR/report.json`` is the command's report with ``response_time_s``,
+``scorer_lag_s`` and ``pinned_shape`` added.
 """
 
 from __future__ import annotations
@@ -52,11 +59,11 @@ shape_value = number_between(0.0, 1.0, note=" (the candidate's range)")
 @contextmanager
 def hysteresis_candidate(shape: float | None, lag: float | None):
     """Within the block, the library's hysteresis candidate holds its shape at ``shape`` (None:
-    fitted) and builds a hysteresis of response time ``lag`` seconds (None: the effect's default)."""
+    fitted) and builds a hysteresis of response time ``lag`` seconds (None: the candidate's own,
+    ``candidates.HYSTERESIS_RESPONSE_TIME``)."""
     from simulation.discrepancy import candidates
-    from simulation.model.effects import Hysteresis
 
-    library, effect = candidates.raven_candidates, candidates.Hysteresis
+    library, own_lag = candidates.raven_candidates, candidates.HYSTERESIS_RESPONSE_TIME
 
     def pinned(signals):
         out = []
@@ -68,16 +75,13 @@ def hysteresis_candidate(shape: float | None, lag: float | None):
             out.append(candidate)
         return out
 
-    def lagged(**fields):
-        return Hysteresis(**{**fields, "response_time": lag})
-
     candidates.raven_candidates = pinned
     if lag is not None:
-        candidates.Hysteresis = lagged
+        candidates.HYSTERESIS_RESPONSE_TIME = lag
     try:
         yield
     finally:
-        candidates.raven_candidates, candidates.Hysteresis = library, effect
+        candidates.raven_candidates, candidates.HYSTERESIS_RESPONSE_TIME = library, own_lag
 
 
 def generator_with(lag: float | None):
@@ -106,6 +110,7 @@ def _values(values) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from simulation.discrepancy import candidates
     from studies.common.discrepancy_report import add_generator_knowledge
     from studies.common.discrepancy_runs import generate_measured, write_measured
     from studies.discrepancy import analyse
@@ -117,8 +122,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--response-time", type=response_time, default=None, metavar="T",
                         help="the generator's hysteresis follows the stretch over T s (0 to 1; "
                              "without it, the effect's default)")
+    parser.add_argument("--scorer-lag", type=response_time, default=None, metavar="L",
+                        help="the plant replay's lag of a fitted hysteresis, L s (0 to 1; without it, "
+                             "the generator's when --response-time is given, else the candidate's own)")
     parser.add_argument("--pin-shape", type=shape_value, default=None, metavar="X",
                         help="the candidate's shape gamma/beta held at X (0 to 1; without it, fitted)")
+    parser.add_argument("--backfit-patience", type=non_negative_int, default=None, metavar="N",
+                        help="the command's --backfit-patience (without it, the workflow's default)")
     parser.add_argument("--out", type=Path, default=Path("results") / STUDY)
     with StudyRun(parser, argv) as study:
         args = study.args
@@ -128,18 +138,21 @@ def main(argv: list[str] | None = None) -> int:
                                                params=generator_with(args.response_time))
         path = write_measured(dataset, study.folder)
         del dataset
-        with hysteresis_candidate(args.pin_shape, args.response_time):
-            result, signals, split, plant, _ = analyse(path, study.folder, shown_path=study.final(path))
+        scorer_lag = args.response_time if args.scorer_lag is None else args.scorer_lag
+        with hysteresis_candidate(args.pin_shape, scorer_lag):
+            result, signals, split, plant, _ = analyse(path, study.folder, shown_path=study.final(path),
+                                                       backfit_patience=args.backfit_patience)
             add_generator_knowledge(study.folder, ("hysteresis",), args.seed, args.duration, generator, path,
                                     result, plant=plant, signals=signals, split=split)
         report_path = study.folder / "report.json"
         report = json.loads(report_path.read_text())
         report["response_time_s"] = float(generator.effect("hysteresis").response_time[0])
+        report["scorer_lag_s"] = float(candidates.HYSTERESIS_RESPONSE_TIME if scorer_lag is None else scorer_lag)
         report["pinned_shape"] = args.pin_shape
         report_path.write_text(json.dumps(report, indent=1))
         study.publish()
     s = summary(report)
-    print(f"response time {report['response_time_s']:g} s; shape "
+    print(f"response time {report['response_time_s']:g} s (scorer's {report['scorer_lag_s']:g} s); shape "
           + ("fitted" if args.pin_shape is None else f"pinned at {args.pin_shape:g}"))
     print(f"named: {', '.join(s['named_effects']) or 'nothing'}")
     if s["fitted"] is not None:

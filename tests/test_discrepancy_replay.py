@@ -340,7 +340,47 @@ def test_column_means_are_numpys_to_the_last_bit_in_every_layout(layout):
         assert np.array_equal(column_means(values), values.mean(axis=0))
 
 
+@pytest.mark.parametrize("options, generator_lag, scorer_lag", [
+    ([], 0.05, 0.05),
+    (["--response-time", "0"], 0.0, 0.0),
+    (["--response-time", "0", "--scorer-lag", "0.1"], 0.0, 0.1),
+    (["--scorer-lag", "0.2", "--backfit-patience", "2"], 0.05, 0.2),
+])
+def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypatch, tmp_path, options,
+                                                                        generator_lag, scorer_lag):
+    import studies.common.discrepancy_runs as runs
+    import studies.discrepancy as command
+    from simulation.discrepancy import candidates
+    from studies import discrepancy_hysteresis_shape as study
+
+    class ReachedTheAnalysis(Exception):
+        pass
+
+    seen = {}
+
+    def generate(hidden, seed, duration, params):
+        seen["generated"] = (hidden, seed, params.effect("hysteresis").response_time.tolist())
+        return None, params
+
+    def analyse(path, folder, shown_path=None, backfit_patience=None):
+        seen["analysed"] = (path.name, backfit_patience, candidates.HYSTERESIS_RESPONSE_TIME)
+        raise ReachedTheAnalysis
+
+    monkeypatch.setattr(runs, "generate_measured", generate)
+    monkeypatch.setattr(runs, "write_measured", lambda dataset, folder: folder / "measured.parquet")
+    monkeypatch.setattr(command, "analyse", analyse)
+    out = tmp_path / "out"
+    with pytest.raises(ReachedTheAnalysis):
+        study.main(["--seed", "5", *options, "--out", str(out)])
+    patience = 2 if "--backfit-patience" in options else None
+    assert seen == {"generated": (("hysteresis",), 5, [generator_lag] * 3),
+                    "analysed": ("measured.parquet", patience, scorer_lag)}
+    assert candidates.HYSTERESIS_RESPONSE_TIME == 0.05
+    assert not out.exists()
+
+
 def test_the_shape_study_holds_the_candidates_shape_and_lag_only_within_its_block(record):
+    from simulation.discrepancy import candidates
     from studies.discrepancy_hysteresis_shape import hysteresis_candidate
 
     signals, model, _ = record
@@ -359,5 +399,12 @@ def test_the_shape_study_holds_the_candidates_shape_and_lag_only_within_its_bloc
     lower, upper, built = fitted_shape_range_and_built()
     np.testing.assert_array_equal(lower, 0.0)
     np.testing.assert_array_equal(upper, 1.0)
-    np.testing.assert_array_equal(built.response_time, Hysteresis().response_time)
+    np.testing.assert_array_equal(built.response_time, candidates.HYSTERESIS_RESPONSE_TIME)
     np.testing.assert_allclose(built.gamma / built.beta, 0.9)
+    with hysteresis_candidate(None, 0.2):
+        lower, upper, built = fitted_shape_range_and_built()
+        np.testing.assert_array_equal(lower, 0.0)
+        np.testing.assert_array_equal(built.response_time, 0.2)
+    assert candidates.HYSTERESIS_RESPONSE_TIME == 0.05
+    _, _, built = fitted_shape_range_and_built()
+    np.testing.assert_array_equal(built.response_time, 0.05)

@@ -69,6 +69,8 @@ SCRIPT_MISTAKES = [
     ("discrepancy_homing", ["--duration", "1e9"], "at most 21600 s (six hours)"),
     ("discrepancy_hysteresis_shape", ["--pin-shape", "1.5"], "the candidate's range"),
     ("discrepancy_hysteresis_shape", ["--response-time", "nan"], "--response-time"),
+    ("discrepancy_hysteresis_shape", ["--scorer-lag", "-0.1"], "--scorer-lag"),
+    ("discrepancy_hysteresis_shape", ["--backfit-patience", "-1"], "--backfit-patience"),
     ("homing", ["--out", "{tmp}/a_file.txt"], "is a file"),
     ("input_features", ["--hours", "-1"], "--hours"),
     ("long_operation", ["--kinds", "idle,sleeping"], "sleeping"),
