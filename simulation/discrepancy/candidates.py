@@ -168,8 +168,9 @@ HYSTERESIS_RESPONSE_TIME = 0.05
 replay (the scoring of the final models and ``--plant-refit``); the quasi-static replay, where the
 candidate is fitted, has none. Not fitted: a round value that keeps the plant's millisecond chatter
 from dithering the loop away. It equals the simulator's default (``Hysteresis.response_time``), so
-a fitted hysteresis is scored with the generator's lag; ``studies/discrepancy_hysteresis_shape.py
---response-time 0`` changes both together."""
+a fitted hysteresis is scored with the generator's lag; ``studies/discrepancy_hysteresis_shape.py``
+changes both together (``--response-time``) or this one alone (``--scorer-lag``), which measures
+what the shared value is worth to the plant-scored shrink."""
 
 
 DRIFT_REFERENCE_SPEED = np.array([0.1, 0.1, 0.01])
