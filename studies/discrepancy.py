@@ -4,6 +4,7 @@
     python studies/discrepancy.py --measured results/discrepancy/measured.parquet --out results/again
     python studies/discrepancy.py --hidden-effect none
     python studies/discrepancy.py --hidden-effect hysteresis --plant-refit   # named effects refitted with the plant
+    python studies/discrepancy.py --hidden-effect hysteresis --fit-plant-lag # the scoring fits the hysteresis lag
     python studies/discrepancy.py --ablate coupling                 # the model lacks a term the data have
     python studies/discrepancy.py --measured ../shared/data/dvrk_hwang2020
     python studies/discrepancy.py --sweep --seeds 5 --duration 240  # hidden vs named, with the oracle
@@ -48,7 +49,11 @@ ones kept in ``quasi_static``, and the oracle is scored the same way. ``--plant-
 a named backlash, hysteresis or drift with the plant replay on the fit part, from the workflow's
 own values (:func:`studies.common.plant_scoring.refit_with_plant`; about ten more minutes on a
 twenty-minute record), and reports it beside those figures (``plant_refit``), which stay the
-workflow's models'.
+workflow's models'. The plant replay gives a fitted hysteresis the candidate's lag behind the
+stretch, a round 0.05 s that equals the simulator's default; ``--fit-plant-lag`` fits that lag to the
+plant on the fit part instead, with each model's Coulomb forces (``plant_replay.hysteresis_lag_s``;
+the oracle and ``--plant-refit`` fit theirs too), so that no value the generator shares enters the
+score.
 
 Every run writes ``DIR/report.json``, ``DIR/report.md`` and PNG plots, and exits 0 whenever the
 workflow ran, whatever it found; a mistake in the arguments or an unreadable input file gets one
@@ -99,8 +104,9 @@ from studies.common.discrepancy_runs import (
     short_record_note,
     write_measured,
 )
-from studies.common.plant_scoring import (PLANT_REFIT_EFFECTS, PLANT_REFIT_EVALUATIONS, refit_with_plant,
-                                         score_with_plant)
+from simulation.discrepancy.candidates import HYSTERESIS_RESPONSE_TIME
+from studies.common.plant_scoring import (HYSTERESIS_LAG_RANGE, PLANT_REFIT_EFFECTS, PLANT_REFIT_EVALUATIONS,
+                                         refit_with_plant, score_with_plant)
 from studies.common.discrepancy_sweep import SWEEP_EFFECTS, read_sweeps, summarise_sweep, sweep
 from studies.common.runner import (
     StudyRun,
@@ -149,14 +155,17 @@ def joint_numbers(text: str) -> tuple[int, ...]:
 
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
             progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None,
-            max_effects: int | None = None, plant_refit: bool = False, backfit_patience: int | None = None):
+            max_effects: int | None = None, plant_refit: bool = False, backfit_patience: int | None = None,
+            fit_plant_lag: bool = False):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     The analysis's last step scores its starting and final models with the plant replay where that
     applies (:func:`~studies.common.plant_scoring.score_with_plant`; the report's gaps and shrink are
     then the plant's, the workflow's quasi-static ones kept beside them). With ``plant_refit`` its
     named backlash, hysteresis or drift is then refitted with the plant replay
-    (:func:`~studies.common.plant_scoring.refit_with_plant`), reported beside those figures.
+    (:func:`~studies.common.plant_scoring.refit_with_plant`), reported beside those figures. With
+    ``fit_plant_lag`` the plant score fits the lag of a named hysteresis instead of taking the
+    candidate's constant.
 
     Returns the result, signals, split, plant score and plant refit (None unless asked for).
     ``shown_path`` is the input's name in the report (where the file will be once published);
@@ -190,7 +199,7 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
         source["description"] += f", {dropped_rows} row{'s' if dropped_rows != 1 else ''} with impossible values left out"
     if result.named_effects:
         say("scoring the starting and final models with the plant replay...")
-    plant = score_with_plant(result, signals, split)
+    plant = score_with_plant(result, signals, split, fit_lag=fit_plant_lag)
     refit = None
     if plant_refit:
         if plant.applies and any(name in PLANT_REFIT_EFFECTS for name in result.named_effects):
@@ -202,7 +211,8 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
 
 
 OPTION_DEFAULTS = {"seed": 0, "seeds": 3, "duration": DEFAULT_RECORD_S, "size_factor": 1.0,
-                   "joints": (4, 5, 6), "arm": "left", "log_rate": LOG_RATE, "plant_refit": False}
+                   "joints": (4, 5, 6), "arm": "left", "log_rate": LOG_RATE, "plant_refit": False,
+                   "fit_plant_lag": False}
 """Values of the options that apply to some inputs only, when not given (their parser default is
 None, so that a given option can be told from an absent one)."""
 
@@ -221,6 +231,7 @@ def options_that_apply(args) -> dict[str, tuple[bool, str]]:
         "backfit_rounds": analysed_blind,
         "max_effects": analysed_blind,
         "plant_refit": analysed_blind,
+        "fit_plant_lag": analysed_blind,
         "backfit_patience": analysed_blind,
         "seed": (generated, "generated data (--hidden-effect, --ablate, --sweep): measured data carry no seed"),
         "seeds": (args.sweep, "--sweep only"),
@@ -278,6 +289,11 @@ def main(argv=None) -> int:
                              "drift with the plant replay where it scores the analysis, from the workflow's values (up "
                              f"to {PLANT_REFIT_EVALUATIONS} replays of the fit part, about ten minutes on twenty), "
                              "reported beside the workflow's own figures")
+    parser.add_argument("--fit-plant-lag", action="store_true", default=None,
+                        help="--measured RAVEN-II data and --hidden-effect only: where the plant replay scores a named "
+                             "hysteresis, fit its lag behind the stretch to the plant on the fit part (0 to "
+                             f"{HYSTERESIS_LAG_RANGE[1]:g} s) instead of taking the candidate's "
+                             f"{HYSTERESIS_RESPONSE_TIME:g} s")
     parser.add_argument("--effects", type=parse_effect_list, default=None, metavar="NAMES",
                         help="--sweep only these hidden effects (comma-separated; default: every choice)")
     parser.add_argument("--joints", type=joint_numbers, default=None,
@@ -314,7 +330,8 @@ def main(argv=None) -> int:
             result, signals, split, plant, refit = analyse(path, study.folder, shown_path=study.final(path),
                                                            progress=progress, backfit_rounds=args.backfit_rounds,
                                                            max_effects=args.max_effects, plant_refit=args.plant_refit,
-                                                           backfit_patience=args.backfit_patience)
+                                                           backfit_patience=args.backfit_patience,
+                                                           fit_plant_lag=bool(args.fit_plant_lag))
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result,
                                     args.size_factor, args.log_rate, plant, signals, split)
         elif args.ablate is not None:
@@ -353,7 +370,8 @@ def main(argv=None) -> int:
                                                                backfit_rounds=args.backfit_rounds,
                                                                max_effects=args.max_effects,
                                                                plant_refit=args.plant_refit,
-                                                               backfit_patience=args.backfit_patience)
+                                                               backfit_patience=args.backfit_patience,
+                                                               fit_plant_lag=bool(args.fit_plant_lag))
             except NotIdentifiableError as error:
                 raise UsageError(f"{args.measured} cannot be analysed: {one_line(error)}") from error
         study.publish()
@@ -373,6 +391,8 @@ def main(argv=None) -> int:
           f"[{pooled_rmse(gap_before[None, :], result.units):.4f} -> {pooled_rmse(gap_after[None, :], result.units):.4f}]")
     if scored_by != SCORED_BY_QUASI_STATIC:
         print(f"  the workflow's quasi-static replay: {100 * result.shrink:.1f} %")
+    if plant is not None and plant.applies and plant.hysteresis_lag is not None:
+        print(f"  the hysteresis's lag fitted to the plant: {plant.hysteresis_lag:.3f} s")
     if refit is not None:
         print(f"  {', '.join(refit.effects)} refitted with the plant replay ({refit.replays} replays): "
               f"{100 * refit.shrink:.1f} %" if refit.applies else f"  not refitted with the plant replay: {refit.reason}")

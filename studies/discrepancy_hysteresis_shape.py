@@ -3,7 +3,7 @@
 A diagnostic, never part of an analysis: it knows the generator. It runs what ``python
 studies/discrepancy.py --hidden-effect hysteresis --seed S --out DIR`` runs (twenty minutes of
 random motion with the hysteresis hidden, written to ``DIR/measured.parquet``, the blind analysis of
-that file scored with the plant, then the oracle and both floors) with up to three changes:
+that file scored with the plant, then the oracle and both floors) with up to four changes:
 
 ``--response-time T``
     The generator's hysteresis follows the cable's stretch over T seconds (its
@@ -16,6 +16,10 @@ that file scored with the plant, then the oracle and both floors) with up to thr
     ``candidates.HYSTERESIS_RESPONSE_TIME``, or T above), while the generator keeps its own: how much
     the plant's scores owe to the scorer sharing the generator's lag. The quasi-static analysis, and
     so what is named and fitted, does not read it.
+``--fit-scorer-lag``
+    The plant replay fits the lag of a fitted hysteresis on the fit part, as the command's
+    ``--fit-plant-lag`` does (within 0 to 0.5 s, from 0.1 s), instead of taking one: whether a
+    scorer that shares no lag with the generator finds the generator's, and what it closes with it.
 ``--pin-shape X``
     The library's hysteresis candidate holds its shape ``gamma / beta`` at X (0 to 1) instead of
     fitting it, in the blind analysis and in the oracle; its stiffness and width are fitted as
@@ -27,12 +31,14 @@ With none of them the run is the command's. Run::
 
     python studies/discrepancy_hysteresis_shape.py --seed 97 --response-time 0 --out DIR
     python studies/discrepancy_hysteresis_shape.py --seed 97 --scorer-lag 0.2 --out DIR
+    python studies/discrepancy_hysteresis_shape.py --seed 97 --response-time 0.2 --fit-scorer-lag --out DIR
     python studies/discrepancy_hysteresis_shape.py --seed 97 --pin-shape 0.4 --out DIR
 
 It prints the named effects, the fitted shape, stiffness and width beside the generator's, the
 first iteration's fit-part gap and BIC, and the shrink (plant and quasi-static) beside the plant
 floor's bound; ``DIR/report.json`` is the command's report with ``response_time_s``,
-``scorer_lag_s`` and ``pinned_shape`` added.
+``scorer_lag_s`` (the fitted lag with ``--fit-scorer-lag``), ``scorer_lag_fitted`` and
+``pinned_shape`` added.
 """
 
 from __future__ import annotations
@@ -122,9 +128,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--response-time", type=response_time, default=None, metavar="T",
                         help="the generator's hysteresis follows the stretch over T s (0 to 1; "
                              "without it, the effect's default)")
-    parser.add_argument("--scorer-lag", type=response_time, default=None, metavar="L",
+    scorer = parser.add_mutually_exclusive_group()
+    scorer.add_argument("--scorer-lag", type=response_time, default=None, metavar="L",
                         help="the plant replay's lag of a fitted hysteresis, L s (0 to 1; without it, "
                              "the generator's when --response-time is given, else the candidate's own)")
+    scorer.add_argument("--fit-scorer-lag", action="store_true",
+                        help="the plant replay fits the lag of a fitted hysteresis on the fit part (the command's "
+                             "--fit-plant-lag) instead of taking one")
     parser.add_argument("--pin-shape", type=shape_value, default=None, metavar="X",
                         help="the candidate's shape gamma/beta held at X (0 to 1; without it, fitted)")
     parser.add_argument("--backfit-patience", type=non_negative_int, default=None, metavar="N",
@@ -141,18 +151,23 @@ def main(argv: list[str] | None = None) -> int:
         scorer_lag = args.response_time if args.scorer_lag is None else args.scorer_lag
         with hysteresis_candidate(args.pin_shape, scorer_lag):
             result, signals, split, plant, _ = analyse(path, study.folder, shown_path=study.final(path),
-                                                       backfit_patience=args.backfit_patience)
+                                                       backfit_patience=args.backfit_patience,
+                                                       fit_plant_lag=args.fit_scorer_lag)
             add_generator_knowledge(study.folder, ("hysteresis",), args.seed, args.duration, generator, path,
                                     result, plant=plant, signals=signals, split=split)
         report_path = study.folder / "report.json"
         report = json.loads(report_path.read_text())
         report["response_time_s"] = float(generator.effect("hysteresis").response_time[0])
-        report["scorer_lag_s"] = float(candidates.HYSTERESIS_RESPONSE_TIME if scorer_lag is None else scorer_lag)
+        report["scorer_lag_s"] = ((report["plant_replay"] or {}).get("hysteresis_lag_s") if args.fit_scorer_lag else
+                                  float(candidates.HYSTERESIS_RESPONSE_TIME if scorer_lag is None else scorer_lag))
+        report["scorer_lag_fitted"] = bool(args.fit_scorer_lag)
         report["pinned_shape"] = args.pin_shape
         report_path.write_text(json.dumps(report, indent=1))
         study.publish()
     s = summary(report)
-    print(f"response time {report['response_time_s']:g} s (scorer's {report['scorer_lag_s']:g} s); shape "
+    scorer = report["scorer_lag_s"]
+    scorer = "none" if scorer is None else f"{scorer:.3g} s" + (", fitted" if args.fit_scorer_lag else "")
+    print(f"response time {report['response_time_s']:g} s (scorer's {scorer}); shape "
           + ("fitted" if args.pin_shape is None else f"pinned at {args.pin_shape:g}"))
     print(f"named: {', '.join(s['named_effects']) or 'nothing'}")
     if s["fitted"] is not None:

@@ -51,6 +51,22 @@ models together, ``python studies/discrepancy_floor.py --effects backlash --resc
 FRICTION_FACTOR_RANGE = (0.0, 3.0)
 """Range of each joint's factor on the Coulomb force the identification gave (the refit's bounds)."""
 
+HYSTERESIS_LAG_RANGE = (0.0, 0.5)
+"""Range (s) of the lag of a fitted hysteresis behind the cable's stretch that a lag-fitting plant
+score searches (:func:`with_plant_friction_and_lag`): from none to half a second, the range of the
+shape study's ``--response-time``. The lag is something only the plant replay sees (the quasi-static
+replay, where the candidate is fitted, has none)."""
+
+HYSTERESIS_LAG_START = 0.1
+"""Where the lag's search starts (s): a round tenth of a second, not the candidate's constant
+(``candidates.HYSTERESIS_RESPONSE_TIME``, which equals the simulator's default). The search's first
+pass runs along the lag over all of :data:`HYSTERESIS_LAG_RANGE`."""
+
+PLANT_LAG_EVALUATIONS = 300
+"""Plant replays of the fit part allowed for a model's lag and Coulomb forces fitted together
+(:func:`with_plant_friction_and_lag`): the friction refit's budget and half as much again for the
+fourth coordinate."""
+
 PLANT_REFIT_EFFECTS = {
     "backlash": lambda e: {"half_width": e.half_width},
     "hysteresis": lambda e: {"stiffness": e.stiffness, "width": 1.0 / e.beta, "shape": e.gamma / e.beta},
@@ -138,6 +154,48 @@ def with_plant_friction(model, signals, split, robot, max_evaluations: int = PLA
     return build(x), x, replays
 
 
+def with_plant_friction_and_lag(model, signals, split, robot, max_evaluations: int = PLANT_LAG_EVALUATIONS):
+    """``model`` (one with a hysteresis) with the lag of its hysteresis behind the stretch (one
+    value, s, for the three joints) and its positioning joints' Coulomb forces fitted together with
+    the plant replay on the fit part (:func:`plant_fit`: the lag from
+    :data:`HYSTERESIS_LAG_START` within :data:`HYSTERESIS_LAG_RANGE`, one factor per joint from 1
+    in :data:`FRICTION_FACTOR_RANGE`). Returns the model, the factors, the lag (s) and the replays
+    it took."""
+    if not model.params.is_enabled("hysteresis"):
+        raise ValueError("the model has no hysteresis whose lag could be fitted")
+    friction = model.params.effect("coulomb_friction")
+    forces = np.asarray(friction.force, dtype=float)
+    unit = HYSTERESIS_LAG_START
+
+    def build(x):
+        lagged = with_lag(model, x[0] * unit)
+        return lagged.with_effect(friction.replace(force=np.r_[x[1:] * forces[:3], forces[3:]]))
+
+    low, high = HYSTERESIS_LAG_RANGE
+    x, replays = plant_fit(model, build, np.r_[HYSTERESIS_LAG_START / unit, np.ones(3)],
+                           [(low / unit, high / unit)] + [FRICTION_FACTOR_RANGE] * 3, signals, split, robot,
+                           max_evaluations)
+    return build(x), x[1:], float(x[0] * unit), replays
+
+
+def scoring_lag_fitted(model, fit_lag: bool) -> bool:
+    """Whether a plant score fitting lags (``fit_lag``) fits the lag of ``model``: one whose
+    hysteresis is switched on."""
+    return bool(fit_lag) and model.params.is_enabled("hysteresis")
+
+
+def with_plant_scoring_fit(model, signals, split, robot, max_evaluations: int, fit_lag: bool):
+    """``model`` as a plant score replays it: its Coulomb forces refitted to the plant
+    (:func:`with_plant_friction`), or, where :func:`scoring_lag_fitted`, its hysteresis's lag
+    fitted with them (:func:`with_plant_friction_and_lag`, half as many replays again as
+    ``max_evaluations``). Returns the model, the factors, the lag (s; None where not fitted) and
+    the replays it took."""
+    if scoring_lag_fitted(model, fit_lag):
+        return with_plant_friction_and_lag(model, signals, split, robot, max_evaluations + max_evaluations // 2)
+    refitted, factors, replays = with_plant_friction(model, signals, split, robot, max_evaluations)
+    return refitted, factors, None, replays
+
+
 @dataclass(frozen=True)
 class PlantScore:
     """The plant replay's verdict on one analysis.
@@ -146,7 +204,10 @@ class PlantScore:
     ``gap_before`` and ``gap_after`` are the held-out residual RMS per joint (rad, rad, m) of the
     starting and final models, each with its Coulomb forces refitted to the plant, ``shrink`` the
     pooled shrink (deg and mm), ``friction_factors`` the refit's factor per joint for ``"before"``
-    and ``"after"``, ``replays`` the plant replays it took.
+    and ``"after"``, ``replays`` the plant replays it took. ``fits_lag`` says whether the score
+    fitted the lag of a model's hysteresis to the plant (``--fit-plant-lag``) instead of taking the
+    candidate's constant; ``hysteresis_lag`` is then the final model's fitted lag (s; None where it
+    has no hysteresis).
     """
 
     applies: bool
@@ -156,6 +217,8 @@ class PlantScore:
     shrink: float | None = None
     friction_factors: dict | None = None
     replays: int = 0
+    fits_lag: bool = False
+    hysteresis_lag: float | None = None
 
     def document(self) -> dict:
         """The score as plain JSON values (SI)."""
@@ -165,7 +228,8 @@ class PlantScore:
         return {"applies": self.applies, "reason": self.reason, "gap_before": listed(self.gap_before),
                 "gap_after": listed(self.gap_after), "shrink": self.shrink,
                 "friction_factors": None if self.friction_factors is None else
-                {k: listed(v) for k, v in self.friction_factors.items()}, "replays": self.replays}
+                {k: listed(v) for k, v in self.friction_factors.items()}, "replays": self.replays,
+                "fits_lag": self.fits_lag, "hysteresis_lag_s": self.hysteresis_lag}
 
 
 def pooled_gap(rms) -> float:
@@ -194,30 +258,39 @@ def plant_score_reason(result, signals) -> str | None:
     return None
 
 
-def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> PlantScore:
+def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTION_EVALUATIONS,
+                     fit_lag: bool = False) -> PlantScore:
     """The plant replay's held-out gaps and shrink of ``result`` (module docstring); a score that
     does not apply when :func:`plant_score_reason` gives a reason, nor when a model's plant replay
-    does not stay finite (then the report's figures are the quasi-static replay's, as elsewhere)."""
+    does not stay finite (then the report's figures are the quasi-static replay's, as elsewhere).
+
+    A model's hysteresis lags the stretch by the candidate's constant
+    (``candidates.HYSTERESIS_RESPONSE_TIME``), a round value that equals the simulator's default;
+    with ``fit_lag`` that lag is fitted to the plant on the fit part together with the model's
+    Coulomb forces (:func:`with_plant_scoring_fit`), so that nothing of the score is a value the
+    generator shares."""
     from kinematics import RavenII
 
     reason = plant_score_reason(result, signals)
     if reason is not None:
-        return PlantScore(applies=False, reason=reason)
+        return PlantScore(applies=False, reason=reason, fits_lag=bool(fit_lag))
     robot = RavenII(signals.arm, check_limits=False)
-    gaps, factors, replays = {}, {}, 0
+    gaps, factors, lags, replays = {}, {}, {}, 0
     for key, model in (("before", result.model_before), ("after", result.model_after)):
-        refitted, factors[key], used = with_plant_friction(model, signals, split, robot, max_evaluations)
+        refitted, factors[key], lags[key], used = with_plant_scoring_fit(model, signals, split, robot,
+                                                                         max_evaluations, fit_lag)
         gaps[key] = plant_held_out_gap(refitted, signals, split, robot)
         replays += used
     for key, gap in gaps.items():
         if not np.all(np.isfinite(gap)):
-            return PlantScore(applies=False, replays=replays,
+            return PlantScore(applies=False, replays=replays, fits_lag=bool(fit_lag),
                               reason=f"the plant replay of the {'starting' if key == 'before' else 'final'} model "
                                      "did not stay finite")
     before = pooled_gap(gaps["before"])
     shrink = 1.0 - pooled_gap(gaps["after"]) / before if before > 0 else 0.0
     return PlantScore(applies=True, gap_before=gaps["before"], gap_after=gaps["after"], shrink=float(shrink),
-                      friction_factors=factors, replays=replays)
+                      friction_factors=factors, replays=replays, fits_lag=bool(fit_lag),
+                      hysteresis_lag=lags["after"])
 
 
 def refine_range(value, lower, upper, scale) -> tuple[np.ndarray, np.ndarray]:
@@ -239,7 +312,8 @@ class PlantRefit:
     per joint (rad, rad, m), ``shrink`` its pooled shrink (deg and mm) over the plant score's
     starting gap, ``fitted`` and ``refitted`` the effects' values (SI, {effect: {parameter:
     list}}) before and after, ``friction_factors`` the factors on the final model's Coulomb forces,
-    ``replays`` the plant replays it took.
+    ``replays`` the plant replays it took, ``hysteresis_lag`` the refitted lag (s) of a hysteresis
+    whose plant score fitted its lag (None otherwise: the candidate's constant).
     """
 
     applies: bool
@@ -251,6 +325,7 @@ class PlantRefit:
     refitted: dict | None = None
     friction_factors: np.ndarray | None = None
     replays: int = 0
+    hysteresis_lag: float | None = None
 
     def document(self) -> dict:
         """The refit as plain JSON values (SI)."""
@@ -260,7 +335,7 @@ class PlantRefit:
         return {"applies": self.applies, "reason": self.reason, "effects": list(self.effects),
                 "gap_after": listed(self.gap_after), "shrink": self.shrink, "fitted": self.fitted,
                 "refitted": self.refitted, "friction_factors": listed(self.friction_factors),
-                "replays": self.replays}
+                "replays": self.replays, "hysteresis_lag_s": self.hysteresis_lag}
 
 
 def refit_with_plant(result, signals, split, score: PlantScore,
@@ -276,7 +351,9 @@ def refit_with_plant(result, signals, split, score: PlantScore,
     effects close when their values are fitted with the replay that scores them. It starts only
     from the analysis's values and the candidates' own ranges and reads only ``signals``. The
     refitted model is scored as ``score`` scores the final model: held out, over ``score``'s starting
-    gap. Does not apply where ``score`` does not, or where no named effect is one it refits."""
+    gap. Where ``score`` fitted the lag of a named hysteresis, the refit fits that lag too, from the
+    score's value within :data:`HYSTERESIS_LAG_RANGE`. Does not apply where ``score`` does not, or
+    where no named effect is one it refits."""
     from kinematics import RavenII
 
     if not score.applies:
@@ -303,6 +380,9 @@ def refit_with_plant(result, signals, split, score: PlantScore,
     friction = model.params.effect("coulomb_friction")
     forces = np.asarray(friction.force, dtype=float)
     cuts = np.cumsum([c.n_parameters for c in candidates])
+    lagged = score.fits_lag and score.hysteresis_lag is not None and "hysteresis" in names
+    unit = HYSTERESIS_LAG_START
+    low, high = HYSTERESIS_LAG_RANGE
 
     def effect_values(x):
         return zip(candidates, np.split(x[:cuts[-1]] * scales, cuts[:-1]))
@@ -311,10 +391,15 @@ def refit_with_plant(result, signals, split, score: PlantScore,
         with_them = model
         for candidate, theta in effect_values(x):
             with_them = candidate.apply(with_them, theta)
-        return with_them.with_effect(friction.replace(force=np.r_[x[cuts[-1]:] * forces[:3], forces[3:]]))
+        if lagged:
+            with_them = with_lag(with_them, x[-1] * unit)
+        return with_them.with_effect(friction.replace(force=np.r_[x[cuts[-1]:cuts[-1] + 3] * forces[:3], forces[3:]]))
 
-    x, replays = plant_fit(model, build, np.r_[np.concatenate(starts), np.ones(3)],
-                           bounds + [FRICTION_FACTOR_RANGE] * 3, signals, split, robot, max_evaluations)
+    start = np.r_[np.concatenate(starts), np.ones(3)]
+    box = bounds + [FRICTION_FACTOR_RANGE] * 3
+    if lagged:
+        start, box = np.r_[start, score.hysteresis_lag / unit], box + [(low / unit, high / unit)]
+    x, replays = plant_fit(model, build, start, box, signals, split, robot, max_evaluations)
     gap = plant_held_out_gap(build(x), signals, split, robot)
     if not np.all(np.isfinite(gap)):
         return PlantRefit(applies=False, replays=replays, reason="the plant replay of the refitted model did not stay finite")
@@ -322,18 +407,27 @@ def refit_with_plant(result, signals, split, score: PlantScore,
     refitted = {c.name: {k: v.tolist() for k, v in c.unpack(theta).items()} for c, theta in effect_values(x)}
     return PlantRefit(applies=True, effects=tuple(names), gap_after=gap,
                       shrink=float(1.0 - pooled_gap(gap) / before if before > 0 else 0.0), fitted=fitted,
-                      refitted=refitted, friction_factors=np.asarray(x[cuts[-1]:], dtype=float), replays=replays)
+                      refitted=refitted, friction_factors=np.asarray(x[cuts[-1]:cuts[-1] + 3], dtype=float),
+                      replays=replays, hysteresis_lag=float(x[-1] * unit) if lagged else None)
+
+
+def with_lag(model, lag: float):
+    """``model`` with its hysteresis lagging the stretch by ``lag`` seconds on every joint."""
+    return model.with_effect(model.params.effect("hysteresis").replace(response_time=np.full(3, float(lag))))
 
 
 def with_refit(model, refit: PlantRefit, signals):
     """``model`` (the analysis's final model) with the values of ``refit`` (one that applies): its
-    effects set to the refitted values and its positioning joints' Coulomb forces multiplied by the
-    refit's factors, the model the refit scored."""
+    effects set to the refitted values (and its hysteresis's lag where the refit fitted one) and its
+    positioning joints' Coulomb forces multiplied by the refit's factors, the model the refit
+    scored."""
     if not refit.applies:
         raise ValueError(f"the refit does not apply: {refit.reason}")
     for candidate in raven_library(signals, refit.effects):
         values = refit.refitted[candidate.name]
         model = candidate.apply(model, np.concatenate([np.ravel(values[b.name]) for b in candidate.blocks]))
+    if refit.hysteresis_lag is not None:
+        model = with_lag(model, refit.hysteresis_lag)
     friction = model.params.effect("coulomb_friction")
     forces = np.asarray(friction.force, dtype=float)
     return model.with_effect(friction.replace(force=np.r_[refit.friction_factors * forces[:3], forces[3:]]))
@@ -356,14 +450,16 @@ def score_oracle_with_plant(oracle_result, blind: PlantScore, signals, split,
                             max_evaluations: int = PLANT_FRICTION_EVALUATIONS) -> tuple[np.ndarray, float] | None:
     """The oracle's held-out gap per joint (SI) and shrink scored as ``blind`` scored the blind
     analysis: its final model's Coulomb forces refitted to the plant, over the blind analysis's
-    plant-scored starting gap (the two share their starting model). None where ``blind`` does not
-    apply; the oracle is then scored by the quasi-static replay, as the analysis is."""
+    plant-scored starting gap (the two share their starting model), its hysteresis's lag fitted with
+    them where ``blind`` fitted lags. None where ``blind`` does not apply; the oracle is then scored
+    by the quasi-static replay, as the analysis is."""
     from kinematics import RavenII
 
     if not blind.applies:
         return None
     robot = RavenII(signals.arm, check_limits=False)
-    refitted, _, _ = with_plant_friction(oracle_result.model_after, signals, split, robot, max_evaluations)
+    refitted, _, _, _ = with_plant_scoring_fit(oracle_result.model_after, signals, split, robot, max_evaluations,
+                                               blind.fits_lag)
     gap = plant_held_out_gap(refitted, signals, split, robot)
     before = pooled_gap(blind.gap_before)
     return gap, (1.0 - pooled_gap(gap) / before if before > 0 else 0.0)
