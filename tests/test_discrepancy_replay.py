@@ -340,14 +340,17 @@ def test_column_means_are_numpys_to_the_last_bit_in_every_layout(layout):
         assert np.array_equal(column_means(values), values.mean(axis=0))
 
 
-@pytest.mark.parametrize("options, generator_lag, scorer_lag", [
-    ([], 0.05, 0.05),
-    (["--response-time", "0"], 0.0, 0.0),
-    (["--response-time", "0", "--scorer-lag", "0.1"], 0.0, 0.1),
-    (["--scorer-lag", "0.2", "--backfit-patience", "2"], 0.05, 0.2),
+@pytest.mark.parametrize("options, generator_lag, scorer_lag, fitted", [
+    ([], 0.05, 0.05, False),
+    (["--response-time", "0"], 0.0, 0.0, False),
+    (["--response-time", "0", "--scorer-lag", "0.1"], 0.0, 0.1, False),
+    (["--scorer-lag", "0.2", "--backfit-patience", "2"], 0.05, 0.2, False),
+    # a scorer that fits its lag leaves the candidate's constant alone (the fit starts elsewhere)
+    (["--response-time", "0.2", "--fit-scorer-lag"], 0.2, 0.2, True),
+    (["--fit-scorer-lag"], 0.05, 0.05, True),
 ])
 def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypatch, tmp_path, options,
-                                                                        generator_lag, scorer_lag):
+                                                                        generator_lag, scorer_lag, fitted):
     import studies.common.discrepancy_runs as runs
     import studies.discrepancy as command
     from simulation.discrepancy import candidates
@@ -362,8 +365,8 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
         seen["generated"] = (hidden, seed, params.effect("hysteresis").response_time.tolist())
         return None, params
 
-    def analyse(path, folder, shown_path=None, backfit_patience=None):
-        seen["analysed"] = (path.name, backfit_patience, candidates.HYSTERESIS_RESPONSE_TIME)
+    def analyse(path, folder, shown_path=None, backfit_patience=None, fit_plant_lag=False):
+        seen["analysed"] = (path.name, backfit_patience, candidates.HYSTERESIS_RESPONSE_TIME, fit_plant_lag)
         raise ReachedTheAnalysis
 
     monkeypatch.setattr(runs, "generate_measured", generate)
@@ -374,7 +377,7 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
         study.main(["--seed", "5", *options, "--out", str(out)])
     patience = 2 if "--backfit-patience" in options else None
     assert seen == {"generated": (("hysteresis",), 5, [generator_lag] * 3),
-                    "analysed": ("measured.parquet", patience, scorer_lag)}
+                    "analysed": ("measured.parquet", patience, scorer_lag, fitted)}
     assert candidates.HYSTERESIS_RESPONSE_TIME == 0.05
     assert not out.exists()
 

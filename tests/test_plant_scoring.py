@@ -173,7 +173,8 @@ def test_the_report_gives_the_plant_refit_beside_the_workflows_figures_in_report
     assert document["plant_refit"] == {"applies": True, "reason": None, "effects": ["backlash"],
                                        "gap_after": [0.6e-4, 0.7e-4, 2e-6], "shrink": 0.65,
                                        "fitted": refit.fitted, "refitted": refit.refitted,
-                                       "friction_factors": [0.9, 1.1, 1.0], "replays": 600}
+                                       "friction_factors": [0.9, 1.1, 1.0], "replays": 600,
+                                       "hysteresis_lag_s": None}
     assert json.loads(json.dumps(document["plant_refit"])) == document["plant_refit"]
     text = "\n".join(plant_refit_section(refit, result))
     assert "shrink 65.0 % over the same starting gap" in text and "600 replays" in text
@@ -239,3 +240,92 @@ def test_the_plant_floor_is_the_held_out_gap_of_the_starting_model_with_its_fric
     assert floor.shape == (3,) and np.all(np.isfinite(floor))
     assert pooled_gap(floor) == pytest.approx(pooled_gap(exact), rel=0.05)
     assert pooled_gap(as_given) > 10 * pooled_gap(exact)
+
+
+def _hysteresis_record(lag, seed, duration=60.0):
+    """A record of the generator with its hysteresis lagging the stretch by ``lag`` s, and the
+    generator's own model with the lag set to the candidate's 0.05 s instead."""
+    from simulation.model.parameters import RavenParameters
+    from studies.common.plant_scoring import with_lag
+
+    params = RavenParameters()
+    params = params.with_effect(replace(params.effect("hysteresis"), response_time=lag))
+    dataset, generator = generate_measured(("hysteresis",), seed=seed, duration=duration, params=params)
+    signals = MeasuredSignals.from_dataset(dataset)
+    return signals, with_lag(RavenModel(generator, np.zeros(3)), 0.05)
+
+
+@pytest.mark.parametrize("true_lag, seed", [(0.3, 1), (0.02, 3)])
+def test_the_plant_fits_a_hysteresis_lag_from_its_start_toward_the_generators_on_either_side(true_lag, seed):
+    # from its start of 0.1 s the lag moves toward the generator's: above 0.2 s for 0.3 s, under
+    # 0.05 s for 0.02 s (measured: 0.339 s and 0.008 s; the plant's residual
+    # hardly changes below about 0.05 s, which bounds how close a small lag comes)
+    from studies.common.plant_scoring import HYSTERESIS_LAG_START, with_plant_friction_and_lag
+
+    signals, model = _hysteresis_record(true_lag, seed)
+    split, robot = Split.by_time(signals), RavenII(signals.arm, check_limits=False)
+    assert HYSTERESIS_LAG_START == 0.1
+    fitted, factors, lag, replays = with_plant_friction_and_lag(model, signals, split, robot, 60)
+    assert (lag > 0.2) if true_lag > 0.1 else (lag < 0.05)
+    assert replays <= 60 + 16
+    np.testing.assert_array_equal(fitted.params.effect("hysteresis").response_time, lag)
+    # the model's Coulomb forces are its generator's, and stay so within 3 %
+    np.testing.assert_allclose(factors, 1.0, atol=0.03)
+    assert pooled_gap(plant_held_out_gap(fitted, signals, split, robot)) < \
+        pooled_gap(plant_held_out_gap(model, signals, split, robot))
+
+
+def test_a_lag_fitting_score_fits_only_a_model_with_a_hysteresis_and_scores_the_rest_as_without(monkeypatch):
+    import studies.common.plant_scoring as scoring
+
+    dataset, generator = generate_measured(("backlash",), seed=0, duration=10.0)
+    signals = MeasuredSignals.from_dataset(dataset)
+    split, robot = Split.by_time(signals), RavenII(signals.arm, check_limits=False)
+    plain = RavenModel(generator, np.zeros(3))
+    with pytest.raises(ValueError, match="the model has no hysteresis whose lag could be fitted"):
+        scoring.with_plant_friction_and_lag(plain, signals, split, robot, 5)
+    result = SimpleNamespace(named_effects=("backlash",), model_before=RavenModel(generator.without("backlash"),
+                                                                                  np.zeros(3)), model_after=plain)
+    fitting, fixed = (score_with_plant(result, signals, split, max_evaluations=5, fit_lag=f) for f in (True, False))
+    assert fitting.fits_lag and not fixed.fits_lag and fitting.hysteresis_lag is None
+    assert fitting.shrink == fixed.shrink and fitting.replays == fixed.replays
+    assert fitting.document()["fits_lag"] and fitting.document()["hysteresis_lag_s"] is None
+    # a final model with a hysteresis gets its lag fitted, beside the friction, and the score says which
+    lagged = RavenModel(generator.with_effect(replace(generator.effect("hysteresis"), enabled=True)), np.zeros(3))
+    seen = []
+
+    def lag_fit(model, signals, split, robot, max_evaluations):
+        seen.append(max_evaluations)
+        return model, np.ones(3), 0.123, 7
+
+    monkeypatch.setattr(scoring, "with_plant_friction_and_lag", lag_fit)
+    score = score_with_plant(replace_result(result, model_after=lagged), signals, split, max_evaluations=6,
+                             fit_lag=True)
+    assert score.hysteresis_lag == 0.123 and seen == [9]
+    assert score.document()["hysteresis_lag_s"] == 0.123
+    # the oracle is scored as the blind analysis was: with its lag fitted where the blind score fitted one
+    seen.clear()
+    scoring.score_oracle_with_plant(SimpleNamespace(model_after=lagged), score, signals, split, max_evaluations=4)
+    assert seen == [6]
+    scoring.score_oracle_with_plant(SimpleNamespace(model_after=lagged), fixed, signals, split, max_evaluations=4)
+    assert seen == [6]
+
+
+def replace_result(result, **changes):
+    return SimpleNamespace(**{**vars(result), **changes})
+
+
+def test_a_refit_with_a_fitted_lag_carries_it_to_the_model_it_scored():
+    from studies.common.plant_scoring import with_refit
+
+    signals = _signals()
+    model = RavenModel(nominal_parameters("left"), np.zeros(3))
+    refitted = {"hysteresis": {"stiffness": [10.0, 4.0, 200.0], "width": [3e-3, 4e-3, 1e-4], "shape": [0.3] * 3}}
+    common = dict(applies=True, effects=("hysteresis",), gap_after=np.ones(3), shrink=0.5, fitted=refitted,
+                  refitted=refitted, friction_factors=np.array([1.0, 1.1, 0.9]), replays=10)
+    lagged = with_refit(model, PlantRefit(hysteresis_lag=0.2, **common), signals)
+    np.testing.assert_array_equal(lagged.params.effect("hysteresis").response_time, 0.2)
+    as_candidate = with_refit(model, PlantRefit(**common), signals)
+    np.testing.assert_array_equal(as_candidate.params.effect("hysteresis").response_time, 0.05)
+    np.testing.assert_allclose(lagged.params.effect("hysteresis").stiffness, [10.0, 4.0, 200.0])
+    assert PlantRefit(hysteresis_lag=0.2, **common).document()["hysteresis_lag_s"] == 0.2
