@@ -329,3 +329,22 @@ def test_a_refit_with_a_fitted_lag_carries_it_to_the_model_it_scored():
     np.testing.assert_array_equal(as_candidate.params.effect("hysteresis").response_time, 0.05)
     np.testing.assert_allclose(lagged.params.effect("hysteresis").stiffness, [10.0, 4.0, 200.0])
     assert PlantRefit(hysteresis_lag=0.2, **common).document()["hysteresis_lag_s"] == 0.2
+
+
+def test_a_lag_the_bounded_search_steps_a_rounding_error_past_zero_is_held_at_zero(monkeypatch):
+    # Powell's bounded search evaluated a lag of -2.8e-18 s at the range's lower end (seed 98),
+    # which the hysteresis refuses as negative
+    import studies.common.plant_scoring as scoring
+
+    model = RavenModel(nominal_parameters("left"), np.zeros(3))
+    model = model.with_effect(replace(model.params.effect("hysteresis"), enabled=True))
+    assert scoring.with_lag(model, -2.77555756e-18).params.effect("hysteresis").response_time.tolist() == [0.0] * 3
+    assert scoring.with_lag(model, 0.7).params.effect("hysteresis").response_time.tolist() == [0.5] * 3
+
+    def plant_fit(model, build, start, bounds, *args):
+        build(np.r_[-2.77555756e-18 / scoring.HYSTERESIS_LAG_START, start[1:]])
+        return np.r_[-2.77555756e-18 / scoring.HYSTERESIS_LAG_START, start[1:]], 1
+
+    monkeypatch.setattr(scoring, "plant_fit", plant_fit)
+    _, _, lag, _ = scoring.with_plant_friction_and_lag(model, _signals(), None, None, 5)
+    assert lag == 0.0

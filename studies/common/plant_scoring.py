@@ -175,7 +175,8 @@ def with_plant_friction_and_lag(model, signals, split, robot, max_evaluations: i
     x, replays = plant_fit(model, build, np.r_[HYSTERESIS_LAG_START / unit, np.ones(3)],
                            [(low / unit, high / unit)] + [FRICTION_FACTOR_RANGE] * 3, signals, split, robot,
                            max_evaluations)
-    return build(x), x[1:], float(x[0] * unit), replays
+    fitted = build(x)
+    return fitted, x[1:], float(fitted.params.effect("hysteresis").response_time[0]), replays
 
 
 def scoring_lag_fitted(model, fit_lag: bool) -> bool:
@@ -408,12 +409,16 @@ def refit_with_plant(result, signals, split, score: PlantScore,
     return PlantRefit(applies=True, effects=tuple(names), gap_after=gap,
                       shrink=float(1.0 - pooled_gap(gap) / before if before > 0 else 0.0), fitted=fitted,
                       refitted=refitted, friction_factors=np.asarray(x[cuts[-1]:cuts[-1] + 3], dtype=float),
-                      replays=replays, hysteresis_lag=float(x[-1] * unit) if lagged else None)
+                      replays=replays,
+                      hysteresis_lag=float(np.clip(x[-1] * unit, low, high)) if lagged else None)
 
 
 def with_lag(model, lag: float):
-    """``model`` with its hysteresis lagging the stretch by ``lag`` seconds on every joint."""
-    return model.with_effect(model.params.effect("hysteresis").replace(response_time=np.full(3, float(lag))))
+    """``model`` with its hysteresis lagging the stretch by ``lag`` seconds on every joint, ``lag``
+    held within :data:`HYSTERESIS_LAG_RANGE` (the bounded search steps a rounding error past its
+    ends)."""
+    lag = float(np.clip(lag, *HYSTERESIS_LAG_RANGE))
+    return model.with_effect(model.params.effect("hysteresis").replace(response_time=np.full(3, lag)))
 
 
 def with_refit(model, refit: PlantRefit, signals):
