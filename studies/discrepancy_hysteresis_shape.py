@@ -148,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
                                                params=generator_with(args.response_time))
         path = write_measured(dataset, study.folder)
         del dataset
-        scorer_lag = args.response_time if args.scorer_lag is None else args.scorer_lag
+        scorer_lag = None if args.fit_scorer_lag else args.response_time if args.scorer_lag is None else args.scorer_lag
         with hysteresis_candidate(args.pin_shape, scorer_lag):
             result, signals, split, plant, _ = analyse(path, study.folder, shown_path=study.final(path),
                                                        backfit_patience=args.backfit_patience,
