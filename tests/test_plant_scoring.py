@@ -348,3 +348,39 @@ def test_a_lag_the_bounded_search_steps_a_rounding_error_past_zero_is_held_at_ze
     monkeypatch.setattr(scoring, "plant_fit", plant_fit)
     _, _, lag, _ = scoring.with_plant_friction_and_lag(model, _signals(), None, None, 5)
     assert lag == 0.0
+
+
+@pytest.mark.parametrize("fits_lag", [True, False])
+def test_the_refit_fits_the_lag_of_a_hysteresis_only_where_its_score_fitted_one(monkeypatch, fits_lag):
+    import studies.common.plant_scoring as scoring
+
+    signals = _signals()
+    params = nominal_parameters("left")
+    params = params.with_effect(replace(params.effect("hysteresis"), enabled=True, stiffness=[10.0, 4.0, 200.0]))
+    result = SimpleNamespace(named_effects=("hysteresis",), model_after=RavenModel(params, np.zeros(3)))
+    score = PlantScore(applies=True, gap_before=np.array([2e-4, 1e-4, 3e-6]), gap_after=np.ones(3), shrink=0.5,
+                       fits_lag=fits_lag, hysteresis_lag=0.03 if fits_lag else None)
+    seen = {}
+
+    def plant_fit(model, build, start, bounds, *args):
+        seen["start"], seen["bounds"] = start, bounds
+        x = np.array(start, dtype=float)
+        if fits_lag:
+            x[-1] = 0.25 / scoring.HYSTERESIS_LAG_START
+        seen["built"] = build(x)
+        return x, 3
+
+    monkeypatch.setattr(scoring, "plant_fit", plant_fit)
+    monkeypatch.setattr(scoring, "plant_held_out_gap", lambda *args: np.full(3, 1e-4))
+    refit = refit_with_plant(result, signals, Split.by_time(signals), score)
+    # nine hysteresis values and three friction factors, and the lag where the score fitted one
+    assert len(seen["start"]) == len(seen["bounds"]) == 9 + 3 + fits_lag
+    np.testing.assert_array_equal(seen["start"][9:12], 1.0)
+    if fits_lag:
+        assert seen["start"][-1] * scoring.HYSTERESIS_LAG_START == pytest.approx(0.03)
+        assert seen["bounds"][-1] == (0.0, 5.0)
+        assert refit.hysteresis_lag == pytest.approx(0.25)
+    else:
+        assert refit.hysteresis_lag is None
+    np.testing.assert_allclose(seen["built"].params.effect("hysteresis").response_time, 0.25 if fits_lag else 0.05)
+    np.testing.assert_array_equal(refit.friction_factors, 1.0)

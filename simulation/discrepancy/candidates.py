@@ -170,7 +170,9 @@ candidate is fitted, has none. Not fitted: a round value that keeps the plant's 
 from dithering the loop away. It equals the simulator's default (``Hysteresis.response_time``), so
 a fitted hysteresis is scored with the generator's lag; ``studies/discrepancy_hysteresis_shape.py``
 changes both together (``--response-time``) or this one alone (``--scorer-lag``), which measures
-what the shared value is worth to the plant-scored shrink."""
+what the shared value is worth to the plant-scored shrink. ``studies/discrepancy.py
+--fit-plant-lag`` fits the lag to the plant instead, taking nothing from this value but the
+weights of its search."""
 
 
 DRIFT_REFERENCE_SPEED = np.array([0.1, 0.1, 0.01])

@@ -20,6 +20,11 @@ what generated the record: it applies when the record and the final model are on
 replay (:func:`plant_score_reason`), and then the report's gaps and shrink are the plant's, the
 quasi-static ones kept beside them.
 
+A fitted hysteresis lags the stretch in the plant by the candidate's constant 0.05 s, which equals
+the simulator's default; with ``fit_lag`` (``--fit-plant-lag``) the score fits that lag to the
+plant on the fit part instead (:func:`with_plant_friction_and_lag`), and so do the oracle's score
+and :func:`refit_with_plant`.
+
 This module sits in the studies layer because it joins the discrepancy package, which imports
 nothing of the simulator's engine, to the engine's plant.
 """
@@ -394,7 +399,8 @@ def refit_with_plant(result, signals, split, score: PlantScore,
             with_them = candidate.apply(with_them, theta)
         if lagged:
             with_them = with_lag(with_them, x[-1] * unit)
-        return with_them.with_effect(friction.replace(force=np.r_[x[cuts[-1]:cuts[-1] + 3] * forces[:3], forces[3:]]))
+        factors = x[cuts[-1]:cuts[-1] + 3]
+        return with_them.with_effect(friction.replace(force=np.r_[factors * forces[:3], forces[3:]]))
 
     start = np.r_[np.concatenate(starts), np.ones(3)]
     box = bounds + [FRICTION_FACTOR_RANGE] * 3
