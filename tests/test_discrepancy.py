@@ -1248,7 +1248,7 @@ def test_rows_with_impossible_values_are_left_out_and_counted_in_the_report(five
     sources = []
     stand_in = SimpleNamespace(named_effects=())
     monkeypatch.setattr(command, "analyse_measured", lambda path, **options: (stand_in, "signals", "split"))
-    monkeypatch.setattr(command, "score_with_plant", lambda result, signals, split: None)
+    monkeypatch.setattr(command, "score_with_plant", lambda result, signals, split, **options: None)
     monkeypatch.setattr(command, "write_report",
                         lambda result, signals, split, source, *rest, **options: sources.append(source))
     with pytest.warns(UserWarning, match="impossible values in 1 of"):
