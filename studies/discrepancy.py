@@ -52,8 +52,8 @@ twenty-minute record), and reports it beside those figures (``plant_refit``), wh
 workflow's models'. The plant replay gives a fitted hysteresis the candidate's lag behind the
 stretch, a round 0.05 s that equals the simulator's default; ``--fit-plant-lag`` fits that lag to the
 plant on the fit part instead, with each model's Coulomb forces (``plant_replay.hysteresis_lag_s``;
-the oracle and ``--plant-refit`` fit theirs too), so that no value the generator shares enters the
-score.
+the oracle and ``--plant-refit`` fit theirs too), so that the lag it scores with is fitted, not a
+value the generator shares.
 
 Every run writes ``DIR/report.json``, ``DIR/report.md`` and PNG plots, and exits 0 whenever the
 workflow ran, whatever it found; a mistake in the arguments or an unreadable input file gets one
@@ -67,6 +67,7 @@ import sys
 from pathlib import Path
 
 from simulation.discrepancy import WorkflowSettings
+from simulation.discrepancy.candidates import HYSTERESIS_RESPONSE_TIME
 from simulation.discrepancy.signals import pooled_rmse
 from simulation.identification import NotIdentifiableError
 from simulation.engine.robot import LOG_RATE, TRUTH_RATE
@@ -104,7 +105,6 @@ from studies.common.discrepancy_runs import (
     short_record_note,
     write_measured,
 )
-from simulation.discrepancy.candidates import HYSTERESIS_RESPONSE_TIME
 from studies.common.plant_scoring import (HYSTERESIS_LAG_RANGE, PLANT_REFIT_EFFECTS, PLANT_REFIT_EVALUATIONS,
                                          refit_with_plant, score_with_plant)
 from studies.common.discrepancy_sweep import SWEEP_EFFECTS, read_sweeps, summarise_sweep, sweep

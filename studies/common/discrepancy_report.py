@@ -464,7 +464,7 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
            f"refitted to the plant on the fit part, {plant.replays} replays)"),
         *([] if plant is None or not plant.applies or plant.hysteresis_lag is None else [
             f"- the named hysteresis's lag behind the stretch, fitted to the plant with the Coulomb forces: "
-            f"{plant.hysteresis_lag:.3f} s (the candidate's own constant is not used)"]),
+            f"{plant.hysteresis_lag:.3f} s (instead of the candidate's 0.05 s)"]),
         *([] if plant is None or plant.applies else [f"- not scored by the plant replay: {plant.reason}"]),
         f"- run: {document['created']}, {runtime_s:.0f} s",
         "",

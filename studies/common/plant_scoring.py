@@ -273,8 +273,9 @@ def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTI
     A model's hysteresis lags the stretch by the candidate's constant
     (``candidates.HYSTERESIS_RESPONSE_TIME``), a round value that equals the simulator's default;
     with ``fit_lag`` that lag is fitted to the plant on the fit part together with the model's
-    Coulomb forces (:func:`with_plant_scoring_fit`), so that nothing of the score is a value the
-    generator shares."""
+    Coulomb forces (:func:`with_plant_scoring_fit`), so that the lag it scores with is fitted, not
+    a value the generator shares (the constant still sets the search's weights, through the
+    model's residual spread)."""
     from kinematics import RavenII
 
     reason = plant_score_reason(result, signals)
