@@ -67,10 +67,11 @@ HYSTERESIS_LAG_START = 0.1
 (``candidates.HYSTERESIS_RESPONSE_TIME``, which equals the simulator's default). The search's first
 pass runs along the lag over all of :data:`HYSTERESIS_LAG_RANGE`."""
 
-PLANT_LAG_EVALUATIONS = 300
-"""Plant replays of the fit part allowed for a model's lag and Coulomb forces fitted together
-(:func:`with_plant_friction_and_lag`): the friction refit's budget and half as much again for the
-fourth coordinate."""
+def lag_fit_evaluations(friction_evaluations: int) -> int:
+    """Plant replays allowed for a model's lag and Coulomb forces fitted together
+    (:func:`with_plant_friction_and_lag`): the friction refit's ``friction_evaluations`` and half as
+    many again for the fourth coordinate."""
+    return friction_evaluations + friction_evaluations // 2
 
 PLANT_REFIT_EFFECTS = {
     "backlash": lambda e: {"half_width": e.half_width},
@@ -159,7 +160,8 @@ def with_plant_friction(model, signals, split, robot, max_evaluations: int = PLA
     return build(x), x, replays
 
 
-def with_plant_friction_and_lag(model, signals, split, robot, max_evaluations: int = PLANT_LAG_EVALUATIONS):
+def with_plant_friction_and_lag(model, signals, split, robot,
+                                max_evaluations: int = lag_fit_evaluations(PLANT_FRICTION_EVALUATIONS)):
     """``model`` (one with a hysteresis) with the lag of its hysteresis behind the stretch (one
     value, s, for the three joints) and its positioning joints' Coulomb forces fitted together with
     the plant replay on the fit part (:func:`plant_fit`: the lag from
@@ -184,20 +186,14 @@ def with_plant_friction_and_lag(model, signals, split, robot, max_evaluations: i
     return fitted, x[1:], float(fitted.params.effect("hysteresis").response_time[0]), replays
 
 
-def scoring_lag_fitted(model, fit_lag: bool) -> bool:
-    """Whether a plant score fitting lags (``fit_lag``) fits the lag of ``model``: one whose
-    hysteresis is switched on."""
-    return bool(fit_lag) and model.params.is_enabled("hysteresis")
-
-
 def with_plant_scoring_fit(model, signals, split, robot, max_evaluations: int, fit_lag: bool):
     """``model`` as a plant score replays it: its Coulomb forces refitted to the plant
-    (:func:`with_plant_friction`), or, where :func:`scoring_lag_fitted`, its hysteresis's lag
-    fitted with them (:func:`with_plant_friction_and_lag`, half as many replays again as
-    ``max_evaluations``). Returns the model, the factors, the lag (s; None where not fitted) and
-    the replays it took."""
-    if scoring_lag_fitted(model, fit_lag):
-        return with_plant_friction_and_lag(model, signals, split, robot, max_evaluations + max_evaluations // 2)
+    (:func:`with_plant_friction`), or, with ``fit_lag`` and a hysteresis switched on, its
+    hysteresis's lag fitted with them (:func:`with_plant_friction_and_lag`, with
+    :func:`lag_fit_evaluations` of ``max_evaluations``). Returns the model, the factors, the lag
+    (s; None where not fitted) and the replays it took."""
+    if fit_lag and model.params.is_enabled("hysteresis"):
+        return with_plant_friction_and_lag(model, signals, split, robot, lag_fit_evaluations(max_evaluations))
     refitted, factors, replays = with_plant_friction(model, signals, split, robot, max_evaluations)
     return refitted, factors, None, replays
 
