@@ -4,7 +4,7 @@
     python studies/discrepancy.py --measured results/discrepancy/measured.parquet --out results/again
     python studies/discrepancy.py --hidden-effect none
     python studies/discrepancy.py --hidden-effect hysteresis --plant-refit   # named effects refitted with the plant
-    python studies/discrepancy.py --hidden-effect hysteresis --fit-plant-lag # the scoring fits the hysteresis lag
+    python studies/discrepancy.py --hidden-effect hysteresis --fixed-plant-lag  # the scoring's lag fixed at 0.05 s
     python studies/discrepancy.py --ablate coupling                 # the model lacks a term the data have
     python studies/discrepancy.py --measured ../shared/data/dvrk_hwang2020
     python studies/discrepancy.py --sweep --seeds 5 --duration 240  # hidden vs named, with the oracle
@@ -49,11 +49,13 @@ ones kept in ``quasi_static``, and the oracle is scored the same way. ``--plant-
 a named backlash, hysteresis or drift with the plant replay on the fit part, from the workflow's
 own values (:func:`studies.common.plant_scoring.refit_with_plant`; about ten more minutes on a
 twenty-minute record), and reports it beside those figures (``plant_refit``), which stay the
-workflow's models'. The plant replay gives a fitted hysteresis the candidate's lag behind the
-stretch, a round 0.05 s that equals the simulator's default; ``--fit-plant-lag`` fits that lag to the
-plant on the fit part instead, with each model's Coulomb forces (``plant_replay.hysteresis_lag_s``;
-the oracle and ``--plant-refit`` fit theirs too), so that the lag it scores with is fitted, not a
-value the generator shares.
+workflow's models'. A fitted hysteresis lags the stretch in the plant (the quasi-static replay has
+no such lag): the score fits that lag to the plant on the fit part, with each model's Coulomb
+forces, from a round 0.1 s (``plant_replay.hysteresis_lag_s``; the oracle and ``--plant-refit`` fit
+theirs too), so that nothing it scores with is a value the generator shares.
+``--fixed-plant-lag`` takes the candidate's constant 0.05 s instead, which equals the simulator's
+default: how the plant-scored hysteresis figures measured before the lag was fitted by default
+were scored (``--fit-plant-lag``, the default, is kept so that earlier commands still run).
 
 Every run writes ``DIR/report.json``, ``DIR/report.md`` and PNG plots, and exits 0 whenever the
 workflow ran, whatever it found; a mistake in the arguments or an unreadable input file gets one
@@ -156,16 +158,16 @@ def joint_numbers(text: str) -> tuple[int, ...]:
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
             progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None,
             max_effects: int | None = None, plant_refit: bool = False, backfit_patience: int | None = None,
-            fit_plant_lag: bool = False):
+            fit_plant_lag: bool = True):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     The analysis's last step scores its starting and final models with the plant replay where that
     applies (:func:`~studies.common.plant_scoring.score_with_plant`; the report's gaps and shrink are
     then the plant's, the workflow's quasi-static ones kept beside them). With ``plant_refit`` its
     named backlash, hysteresis or drift is then refitted with the plant replay
-    (:func:`~studies.common.plant_scoring.refit_with_plant`), reported beside those figures. With
-    ``fit_plant_lag`` the plant score fits the lag of a named hysteresis instead of taking the
-    candidate's constant.
+    (:func:`~studies.common.plant_scoring.refit_with_plant`), reported beside those figures. The
+    plant score fits the lag of a named hysteresis; with ``fit_plant_lag`` False it takes the
+    candidate's constant (``candidates.HYSTERESIS_RESPONSE_TIME``, the simulator's default).
 
     Returns the result, signals, split, plant score and plant refit (None unless asked for).
     ``shown_path`` is the input's name in the report (where the file will be once published);
@@ -212,7 +214,7 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
 
 OPTION_DEFAULTS = {"seed": 0, "seeds": 3, "duration": DEFAULT_RECORD_S, "size_factor": 1.0,
                    "joints": (4, 5, 6), "arm": "left", "log_rate": LOG_RATE, "plant_refit": False,
-                   "fit_plant_lag": False}
+                   "fit_plant_lag": False, "fixed_plant_lag": False}
 """Values of the options that apply to some inputs only, when not given (their parser default is
 None, so that a given option can be told from an absent one)."""
 
@@ -231,7 +233,9 @@ def options_that_apply(args) -> dict[str, tuple[bool, str]]:
         "backfit_rounds": analysed_blind,
         "max_effects": analysed_blind,
         "plant_refit": analysed_blind,
-        "fit_plant_lag": analysed_blind,
+        "fit_plant_lag": (analysed_blind[0] or args.sweep, "--measured RAVEN-II data, --hidden-effect and --sweep only"),
+        "fixed_plant_lag": (analysed_blind[0] or args.sweep,
+                            "--measured RAVEN-II data, --hidden-effect and --sweep only"),
         "backfit_patience": analysed_blind,
         "seed": (generated, "generated data (--hidden-effect, --ablate, --sweep): measured data carry no seed"),
         "seeds": (args.sweep, "--sweep only"),
@@ -289,11 +293,15 @@ def main(argv=None) -> int:
                              "drift with the plant replay where it scores the analysis, from the workflow's values (up "
                              f"to {PLANT_REFIT_EVALUATIONS} replays of the fit part, about ten minutes on twenty), "
                              "reported beside the workflow's own figures")
-    parser.add_argument("--fit-plant-lag", action="store_true", default=None,
-                        help="--measured RAVEN-II data and --hidden-effect only: where the plant replay scores a named "
-                             "hysteresis, fit its lag behind the stretch to the plant on the fit part (0 to "
-                             f"{HYSTERESIS_LAG_RANGE[1]:g} s) instead of taking the candidate's "
-                             f"{HYSTERESIS_RESPONSE_TIME:g} s")
+    lag = parser.add_mutually_exclusive_group()
+    lag.add_argument("--fixed-plant-lag", action="store_true", default=None,
+                     help="--measured RAVEN-II data, --hidden-effect and --sweep only: where the plant replay scores a "
+                          f"named hysteresis, give it the candidate's lag of {HYSTERESIS_RESPONSE_TIME:g} s behind the "
+                          "stretch (the simulator's default; how hysteresis was scored before the lag was fitted) "
+                          f"instead of fitting the lag to the plant on the fit part (0 to {HYSTERESIS_LAG_RANGE[1]:g} s)")
+    lag.add_argument("--fit-plant-lag", action="store_true", default=None,
+                     help="the default, kept so that earlier commands run: fit the lag of a named hysteresis to the "
+                          "plant")
     parser.add_argument("--effects", type=parse_effect_list, default=None, metavar="NAMES",
                         help="--sweep only these hidden effects (comma-separated; default: every choice)")
     parser.add_argument("--joints", type=joint_numbers, default=None,
@@ -315,7 +323,8 @@ def main(argv=None) -> int:
             return 0
         if args.sweep:
             sweep(args.effects or SWEEP_EFFECTS, range(args.seed, args.seed + args.seeds), args.duration, study.folder,
-                  progress, args.size_factor, lines=not args.no_progress and not progress)
+                  progress, args.size_factor, lines=not args.no_progress and not progress,
+                  fit_plant_lag=not args.fixed_plant_lag)
             study.publish()
             study.done()
             return 0
@@ -331,7 +340,7 @@ def main(argv=None) -> int:
                                                            progress=progress, backfit_rounds=args.backfit_rounds,
                                                            max_effects=args.max_effects, plant_refit=args.plant_refit,
                                                            backfit_patience=args.backfit_patience,
-                                                           fit_plant_lag=bool(args.fit_plant_lag))
+                                                           fit_plant_lag=not args.fixed_plant_lag)
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result,
                                     args.size_factor, args.log_rate, plant, signals, split)
         elif args.ablate is not None:
@@ -371,7 +380,7 @@ def main(argv=None) -> int:
                                                                max_effects=args.max_effects,
                                                                plant_refit=args.plant_refit,
                                                                backfit_patience=args.backfit_patience,
-                                                               fit_plant_lag=bool(args.fit_plant_lag))
+                                                               fit_plant_lag=not args.fixed_plant_lag)
             except NotIdentifiableError as error:
                 raise UsageError(f"{args.measured} cannot be analysed: {one_line(error)}") from error
         study.publish()

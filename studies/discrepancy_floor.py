@@ -354,8 +354,10 @@ def plant_rescored(effect: str, seed: int, duration: float, size_factor: float =
 def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 1.0,
                   max_evaluations: int = PLANT_REFIT_EVALUATIONS, rebase: bool = False,
                   stiffness: bool = False) -> dict:
-    """The blind analysis of ``effect``'s generated record scored as its report scores it
-    (:func:`~studies.common.plant_scoring.score_with_plant`), then its named effects refitted with
+    """The blind analysis of ``effect``'s generated record scored as its report scored it before the
+    lag of a hysteresis was fitted by default (:func:`~studies.common.plant_scoring.score_with_plant`
+    with the candidate's fixed lag, ``--fixed-plant-lag``: the refinements below were measured so),
+    then its named effects refitted with
     the plant replay as ``--plant-refit`` refits them
     (:func:`~studies.common.plant_scoring.refit_with_plant`, at most ``max_evaluations`` replays).
 
@@ -372,7 +374,7 @@ def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 
 
     dataset, _ = generated_record((effect,), seed, duration, size_factor)
     result, signals, split = run_on_raven_dataset(dataset)
-    score = score_with_plant(result, signals, split)
+    score = score_with_plant(result, signals, split, fit_lag=False)
     out = {"named_effects": list(result.named_effects), "plant_scored": bool(score.applies)}
     refit = refit_with_plant(result, signals, split, score, max_evaluations)
     if not refit.applies:
@@ -470,9 +472,10 @@ def plant_decomposed(effect: str, seed: int, duration: float, size_factor: float
     """A diagnostic that knows the generator: which part of the blind analysis's final model keeps
     its plant-scored shrink short of the floor's bound.
 
-    ``effect``'s generated record is analysed blind and scored as its report scores it
-    (:func:`~studies.common.plant_scoring.score_with_plant`, at most ``max_evaluations`` replays per
-    Coulomb-force refit). Where the analysis named ``effect`` (one of
+    ``effect``'s generated record is analysed blind and scored as its report scored it before the
+    lag of a hysteresis was fitted by default (:func:`~studies.common.plant_scoring.score_with_plant`
+    with the candidate's fixed lag, at most ``max_evaluations`` replays per Coulomb-force refit): the
+    swapped models are scored with the lags they carry, so that only the swapped part differs. Where the analysis named ``effect`` (one of
     :data:`~studies.common.plant_scoring.PLANT_REFIT_EFFECTS`, whose generator carries one effect
     object of that name), each model of :data:`DECOMPOSED_MODELS` is scored the same way: its
     Coulomb forces refitted with the plant replay on the fit part, its held-out gap over the
@@ -487,7 +490,7 @@ def plant_decomposed(effect: str, seed: int, duration: float, size_factor: float
         raise ValueError(f"the decomposition swaps one of {', '.join(PLANT_REFIT_EFFECTS)}, not {effect!r}")
     dataset, generator = generated_record((effect,), seed, duration, size_factor)
     result, signals, split = run_on_raven_dataset(dataset)
-    score = score_with_plant(result, signals, split, max_evaluations)
+    score = score_with_plant(result, signals, split, max_evaluations, fit_lag=False)
     out = {"named_effects": list(result.named_effects), "plant_scored": bool(score.applies)}
     if not score.applies or effect not in result.named_effects:
         return out

@@ -299,8 +299,8 @@ def test_a_lag_fitting_score_fits_only_a_model_with_a_hysteresis_and_scores_the_
         return model, np.ones(3), 0.123, 7
 
     monkeypatch.setattr(scoring, "with_plant_friction_and_lag", lag_fit)
-    score = score_with_plant(replace_result(result, model_after=lagged), signals, split, max_evaluations=6,
-                             fit_lag=True)
+    # fitting the lag is the default
+    score = score_with_plant(replace_result(result, model_after=lagged), signals, split, max_evaluations=6)
     assert score.hysteresis_lag == 0.123 and seen == [9]
     assert score.document()["hysteresis_lag_s"] == 0.123
     # the oracle is scored as the blind analysis was: with its lag fitted where the blind score fitted one
@@ -341,13 +341,18 @@ def test_a_lag_the_bounded_search_steps_a_rounding_error_past_zero_is_held_at_ze
     assert scoring.with_lag(model, -2.77555756e-18).params.effect("hysteresis").response_time.tolist() == [0.0] * 3
     assert scoring.with_lag(model, 0.7).params.effect("hysteresis").response_time.tolist() == [0.5] * 3
 
+    weighed_by = []
+
     def plant_fit(model, build, start, bounds, *args):
+        weighed_by.append(model.params.effect("hysteresis").response_time.tolist())
         build(np.r_[-2.77555756e-18 / scoring.HYSTERESIS_LAG_START, start[1:]])
         return np.r_[-2.77555756e-18 / scoring.HYSTERESIS_LAG_START, start[1:]], 1
 
     monkeypatch.setattr(scoring, "plant_fit", plant_fit)
-    _, _, lag, _ = scoring.with_plant_friction_and_lag(model, _signals(), None, None, 5)
+    _, _, lag, _ = scoring.with_plant_friction_and_lag(scoring.with_lag(model, 0.05), _signals(), None, None, 5)
     assert lag == 0.0
+    # the search weighs the joints under its own starting lag, not the model's (the candidate's constant)
+    assert weighed_by == [[scoring.HYSTERESIS_LAG_START] * 3]
 
 
 @pytest.mark.parametrize("fits_lag", [True, False])
@@ -364,6 +369,7 @@ def test_the_refit_fits_the_lag_of_a_hysteresis_only_where_its_score_fitted_one(
 
     def plant_fit(model, build, start, bounds, *args):
         seen["start"], seen["bounds"] = start, bounds
+        seen["weighed at"] = model.params.effect("hysteresis").response_time.tolist()
         x = np.array(start, dtype=float)
         if fits_lag:
             x[-1] = 0.25 / scoring.HYSTERESIS_LAG_START
@@ -383,4 +389,6 @@ def test_the_refit_fits_the_lag_of_a_hysteresis_only_where_its_score_fitted_one(
     else:
         assert refit.hysteresis_lag is None
     np.testing.assert_allclose(seen["built"].params.effect("hysteresis").response_time, 0.25 if fits_lag else 0.05)
+    # weighed under the lag it starts from: the score's fitted one, or the model's own where none was fitted
+    np.testing.assert_allclose(seen["weighed at"], 0.03 if fits_lag else 0.05)
     np.testing.assert_array_equal(refit.friction_factors, 1.0)

@@ -463,8 +463,13 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
            f" (the workflow's quasi-static replay: {100 * result.shrink:.1f} %; each model's Coulomb forces "
            f"refitted to the plant on the fit part, {plant.replays} replays)"),
         *([] if plant is None or not plant.applies or plant.hysteresis_lag is None else [
-            f"- the named hysteresis's lag behind the stretch, fitted to the plant with the Coulomb forces: "
-            f"{plant.hysteresis_lag:.3f} s (instead of the candidate's 0.05 s)"]),
+            f"- the named hysteresis's lag behind the stretch, fitted to the plant with the Coulomb forces "
+            f"(from 0.1 s): {plant.hysteresis_lag:.3f} s"]),
+        *([] if plant is None or not plant.applies or plant.fits_lag
+          or not result.model_after.params.is_enabled("hysteresis") else [
+            f"- the named hysteresis's lag behind the stretch in the plant: the candidate's fixed "
+            f"{float(result.model_after.params.effect('hysteresis').response_time[0]):g} s (--fixed-plant-lag), "
+            "not fitted"]),
         *([] if plant is None or plant.applies else [f"- not scored by the plant replay: {plant.reason}"]),
         f"- run: {document['created']}, {runtime_s:.0f} s",
         "",

@@ -70,7 +70,7 @@ def sweep_line(run: dict, done: int, total: int) -> str:
 
 
 def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, size_factor: float = 1.0,
-          lines: bool = False) -> dict:
+          lines: bool = False, fit_plant_lag: bool = True) -> dict:
     """Hide each effect with each seed, through the file and the blind analysis, with the oracle:
     the confusion matrix of hidden vs named (first named), and per effect how often it was named
     first and the shrink beside the oracle's. ``progress`` draws a bar on stderr; ``lines`` writes
@@ -78,7 +78,9 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
 
     Each seed's floor is measured once, by its ``none`` run where one is swept: quasi-statically,
     and scored with the plant replay (``plant_floor``) as a run whose shrink the plant scores reads
-    its bound against."""
+    its bound against. A named hysteresis's lag in the plant is fitted, as the command fits it
+    (``fit_plant_lag`` False: the candidate's constant, ``--fixed-plant-lag``); each run records
+    the final model's fitted lag (``hysteresis_lag_s``, None where none was fitted)."""
     import tempfile
 
     from joblib import Parallel, delayed
@@ -96,7 +98,7 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
         after = pooled_rmse(fit.residual_after.joints, result.units)
         quasi_oracle_shrink = float(1.0 - after / before) if before > 0 else 0.0
         # scored as the command's report scores them: the plant replay's where it applies
-        plant = score_with_plant(result, signals, split)
+        plant = score_with_plant(result, signals, split, fit_lag=fit_plant_lag)
         scored = score_oracle_with_plant(fit, plant, signals, split)
         _, _, shrink, scored_by = scored_gaps(result, plant)
         oracle_shrink = quasi_oracle_shrink if scored is None else float(scored[1])
@@ -112,6 +114,7 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
                 "unexplained": result.unexplained, "gap_before": pooled_rmse(result.residual_before.joints, result.units),
                 "plant_gap_before": pooled_gap(plant.gap_before) if plant.applies else None, **floor,
                 "shrink": shrink, "oracle_shrink": oracle_shrink, "scored_by": scored_by,
+                "hysteresis_lag_s": plant.hysteresis_lag if plant.applies else None,
                 "quasi_static_shrink": float(result.shrink), "oracle_quasi_static_shrink": quasi_oracle_shrink,
                 "residual_structure": structure_shares(result), "oracle_residual_structure": structure_shares(fit),
                 "signature": list(result.signature), "command_shrink": command_shrink(result),

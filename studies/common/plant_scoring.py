@@ -20,10 +20,12 @@ what generated the record: it applies when the record and the final model are on
 replay (:func:`plant_score_reason`), and then the report's gaps and shrink are the plant's, the
 quasi-static ones kept beside them.
 
-A fitted hysteresis lags the stretch in the plant by the candidate's constant 0.05 s, which equals
-the simulator's default; with ``fit_lag`` (``--fit-plant-lag``) the score fits that lag to the
-plant on the fit part instead (:func:`with_plant_friction_and_lag`), and so do the oracle's score
-and :func:`refit_with_plant`.
+The quasi-static replay, where a hysteresis is fitted, has no lag of the hysteresis behind the
+stretch; the plant does. The score fits that lag to the plant on the fit part, together with the
+Coulomb forces (:func:`with_plant_friction_and_lag`, from a round 0.1 s), and so do the oracle's
+score and :func:`refit_with_plant`. With ``fit_lag=False`` (``--fixed-plant-lag``) it takes the
+candidate's constant 0.05 s instead, which equals the simulator's default: how every plant-scored
+hysteresis figure measured before the lag was fitted by default was scored.
 
 This module sits in the studies layer because it joins the discrepancy package, which imports
 nothing of the simulator's engine, to the engine's plant.
@@ -63,7 +65,8 @@ shape study's ``--response-time``. The lag is something only the plant replay se
 replay, where the candidate is fitted, has none)."""
 
 HYSTERESIS_LAG_START = 0.1
-"""Where the lag's search starts (s): a round tenth of a second, not the candidate's constant
+"""Where the lag's search starts (s), and the lag under which its weights are taken
+(:func:`plant_fit`): a round tenth of a second, not the candidate's constant
 (``candidates.HYSTERESIS_RESPONSE_TIME``, which equals the simulator's default). The search's first
 pass runs along the lag over all of :data:`HYSTERESIS_LAG_RANGE`."""
 
@@ -121,8 +124,9 @@ def plant_held_out_gap(model, signals, split, robot) -> np.ndarray:
 def plant_fit(model, build, start, bounds, signals, split, robot, max_evaluations: int) -> tuple[np.ndarray, int]:
     """Powell's method on ``build(x)`` (a model of the vector ``x``, from ``start`` within ``bounds``),
     at most ``max_evaluations`` plant replays of the fit part, minimising its joint residual, each
-    joint over its spread under ``model``, the constant offsets profiled out. Returns the best
-    ``x`` and the replays it took."""
+    joint over its spread under ``model`` (the weights: the model the search starts from, so that
+    no joint's larger residual drowns the others), the constant offsets profiled out. Returns the
+    best ``x`` and the replays it took."""
     from scipy.optimize import minimize
 
     head = signals.head(int(np.flatnonzero(split.fit)[-1]) + 1)
@@ -166,8 +170,9 @@ def with_plant_friction_and_lag(model, signals, split, robot,
     value, s, for the three joints) and its positioning joints' Coulomb forces fitted together with
     the plant replay on the fit part (:func:`plant_fit`: the lag from
     :data:`HYSTERESIS_LAG_START` within :data:`HYSTERESIS_LAG_RANGE`, one factor per joint from 1
-    in :data:`FRICTION_FACTOR_RANGE`). Returns the model, the factors, the lag (s) and the replays
-    it took."""
+    in :data:`FRICTION_FACTOR_RANGE`; each joint weighed by its spread under the model with the
+    starting lag, so that nothing of the search depends on the candidate's constant). Returns the
+    model, the factors, the lag (s) and the replays it took."""
     if not model.params.is_enabled("hysteresis"):
         raise ValueError("the model has no hysteresis whose lag could be fitted")
     friction = model.params.effect("coulomb_friction")
@@ -179,7 +184,7 @@ def with_plant_friction_and_lag(model, signals, split, robot,
         return lagged.with_effect(friction.replace(force=np.r_[x[1:] * forces[:3], forces[3:]]))
 
     low, high = HYSTERESIS_LAG_RANGE
-    x, replays = plant_fit(model, build, np.r_[HYSTERESIS_LAG_START / unit, np.ones(3)],
+    x, replays = plant_fit(with_lag(model, HYSTERESIS_LAG_START), build, np.r_[HYSTERESIS_LAG_START / unit, np.ones(3)],
                            [(low / unit, high / unit)] + [FRICTION_FACTOR_RANGE] * 3, signals, split, robot,
                            max_evaluations)
     fitted = build(x)
@@ -207,9 +212,9 @@ class PlantScore:
     starting and final models, each with its Coulomb forces refitted to the plant, ``shrink`` the
     pooled shrink (deg and mm), ``friction_factors`` the refit's factor per joint for ``"before"``
     and ``"after"``, ``replays`` the plant replays it took. ``fits_lag`` says whether the score
-    fitted the lag of a model's hysteresis to the plant (``--fit-plant-lag``) instead of taking the
-    candidate's constant; ``hysteresis_lag`` is then the final model's fitted lag (s; None where it
-    has no hysteresis).
+    fitted the lag of a model's hysteresis to the plant (the default) or took the candidate's
+    constant (``--fixed-plant-lag``); ``hysteresis_lag`` is then the final model's fitted lag (s;
+    None where it has no hysteresis or the lag was not fitted).
     """
 
     applies: bool
@@ -261,17 +266,17 @@ def plant_score_reason(result, signals) -> str | None:
 
 
 def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTION_EVALUATIONS,
-                     fit_lag: bool = False) -> PlantScore:
+                     fit_lag: bool = True) -> PlantScore:
     """The plant replay's held-out gaps and shrink of ``result`` (module docstring); a score that
     does not apply when :func:`plant_score_reason` gives a reason, nor when a model's plant replay
     does not stay finite (then the report's figures are the quasi-static replay's, as elsewhere).
 
-    A model's hysteresis lags the stretch by the candidate's constant
-    (``candidates.HYSTERESIS_RESPONSE_TIME``), a round value that equals the simulator's default;
-    with ``fit_lag`` that lag is fitted to the plant on the fit part together with the model's
-    Coulomb forces (:func:`with_plant_scoring_fit`), so that the lag it scores with is fitted, not
-    a value the generator shares (the constant still sets the search's weights, through the
-    model's residual spread)."""
+    The lag of a model's hysteresis behind the stretch is fitted to the plant on the fit part
+    together with the model's Coulomb forces (:func:`with_plant_scoring_fit`), from a round 0.1 s
+    and weighed at it, so that nothing of the score is a value the generator shares. With
+    ``fit_lag=False`` the hysteresis lags by the candidate's constant
+    (``candidates.HYSTERESIS_RESPONSE_TIME``, which equals the simulator's default), as every
+    plant-scored hysteresis figure measured before the lag was fitted by default."""
     from kinematics import RavenII
 
     reason = plant_score_reason(result, signals)
@@ -403,7 +408,8 @@ def refit_with_plant(result, signals, split, score: PlantScore,
     box = bounds + [FRICTION_FACTOR_RANGE] * 3
     if lagged:
         start, box = np.r_[start, score.hysteresis_lag / unit], box + [(low / unit, high / unit)]
-    x, replays = plant_fit(model, build, start, box, signals, split, robot, max_evaluations)
+    weighed_by = with_lag(model, score.hysteresis_lag) if lagged else model
+    x, replays = plant_fit(weighed_by, build, start, box, signals, split, robot, max_evaluations)
     gap = plant_held_out_gap(build(x), signals, split, robot)
     if not np.all(np.isfinite(gap)):
         return PlantRefit(applies=False, replays=replays, reason="the plant replay of the refitted model did not stay finite")
