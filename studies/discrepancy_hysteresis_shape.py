@@ -1,24 +1,27 @@
 """What sets the fitted Bouc-Wen shape of a hidden hysteresis, and whether the shape holds the shrink short.
 
 A diagnostic, never part of an analysis: it knows the generator. It runs what ``python
-studies/discrepancy.py --hidden-effect hysteresis --seed S --out DIR`` runs (twenty minutes of
-random motion with the hysteresis hidden, written to ``DIR/measured.parquet``, the blind analysis of
-that file scored with the plant, then the oracle and both floors) with up to four changes:
+studies/discrepancy.py --hidden-effect hysteresis --seed S --fixed-plant-lag --out DIR`` runs
+(twenty minutes of random motion with the hysteresis hidden, written to ``DIR/measured.parquet``, the
+blind analysis of that file scored with the plant, a fitted hysteresis lagging by the candidate's
+constant, then the oracle and both floors: the command as its tables here were measured, before it
+fitted the lag by default) with up to four changes:
 
 ``--response-time T``
     The generator's hysteresis follows the cable's stretch over T seconds (its
     ``Hysteresis.response_time``, a first-order lag; 0.05 s by default, 0 at every plant
     sub-step). The quasi-static replay's Bouc-Wen follows the logged stretch sample by sample
     whatever T is. The plant replay that scores the final models gives a fitted hysteresis the
-    same T, so that the scorer's plant is the generator's, as it is in the command.
+    same T, so that the scorer's plant is the generator's, as the command's ``--fixed-plant-lag``
+    is at the default T.
 ``--scorer-lag L``
     The plant replay gives a fitted hysteresis the lag L seconds instead (the candidate's
     ``candidates.HYSTERESIS_RESPONSE_TIME``, or T above), while the generator keeps its own: how much
     the plant's scores owe to the scorer sharing the generator's lag. The quasi-static analysis, and
     so what is named and fitted, does not read it.
 ``--fit-scorer-lag``
-    The plant replay fits the lag of a fitted hysteresis on the fit part, as the command's
-    ``--fit-plant-lag`` does (within 0 to 0.5 s, from 0.1 s), instead of taking one: whether a
+    The plant replay fits the lag of a fitted hysteresis on the fit part, as the command does by
+    default (within 0 to 0.5 s, from 0.1 s), instead of taking one: whether a
     scorer that shares no lag with the generator finds the generator's, and what it closes with it.
 ``--pin-shape X``
     The library's hysteresis candidate holds its shape ``gamma / beta`` at X (0 to 1) instead of
@@ -27,7 +30,8 @@ that file scored with the plant, then the oracle and both floors) with up to fou
 
 ``--backfit-patience N`` passes the command's option of that name to the blind analysis (and so
 to the oracle). None of these changes the analysis's code path: the record reaches it as a file.
-With none of them the run is the command's. Run::
+With none of them the run is the command's with ``--fixed-plant-lag``; with ``--fit-scorer-lag``
+alone, the command's. Run::
 
     python studies/discrepancy_hysteresis_shape.py --seed 97 --response-time 0 --out DIR
     python studies/discrepancy_hysteresis_shape.py --seed 97 --scorer-lag 0.2 --out DIR
@@ -133,8 +137,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="the plant replay's lag of a fitted hysteresis, L s (0 to 1; without it, "
                              "the generator's when --response-time is given, else the candidate's own)")
     scorer.add_argument("--fit-scorer-lag", action="store_true",
-                        help="the plant replay fits the lag of a fitted hysteresis on the fit part (the command's "
-                             "--fit-plant-lag) instead of taking one")
+                        help="the plant replay fits the lag of a fitted hysteresis on the fit part (as the command "
+                             "does by default) instead of taking one")
     parser.add_argument("--pin-shape", type=shape_value, default=None, metavar="X",
                         help="the candidate's shape gamma/beta held at X (0 to 1; without it, fitted)")
     parser.add_argument("--backfit-patience", type=non_negative_int, default=None, metavar="N",

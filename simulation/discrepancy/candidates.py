@@ -164,15 +164,17 @@ def _velocity_scale(model) -> np.ndarray:
 
 
 HYSTERESIS_RESPONSE_TIME = 0.05
-"""Lag (s) of the hysteresis candidate's Bouc-Wen state behind the stretch, read only by the plant
-replay (the scoring of the final models and ``--plant-refit``); the quasi-static replay, where the
-candidate is fitted, has none. Not fitted: a round value that keeps the plant's millisecond chatter
-from dithering the loop away. It equals the simulator's default (``Hysteresis.response_time``), so
-a fitted hysteresis is scored with the generator's lag; ``studies/discrepancy_hysteresis_shape.py``
-changes both together (``--response-time``) or this one alone (``--scorer-lag``), which measures
-what the shared value is worth to the plant-scored shrink. ``studies/discrepancy.py
---fit-plant-lag`` fits the lag to the plant instead, taking nothing from this value but the
-weights of its search."""
+"""Lag (s) of the hysteresis candidate's Bouc-Wen state behind the stretch as the candidate builds
+it; the quasi-static replay, where the candidate is fitted, has none, and only a plant replay reads
+it. The plant score of an analysis fits the lag instead (``studies/common/plant_scoring.py``, from a
+round 0.1 s), and takes nothing from this value; it is read where a plant replay does not fit the
+lag: ``studies/discrepancy.py --fixed-plant-lag`` and the diagnostics measured that way (the floor
+study's refinements, the shape study without ``--fit-scorer-lag``). A round value that keeps the
+plant's millisecond chatter from dithering the loop away; it equals the simulator's default
+(``Hysteresis.response_time``), which is why the score no longer uses it.
+``studies/discrepancy_hysteresis_shape.py`` changes both together (``--response-time``) or this
+one alone (``--scorer-lag``), which measures what the shared value was worth to the fixed-lag
+score."""
 
 
 DRIFT_REFERENCE_SPEED = np.array([0.1, 0.1, 0.01])
