@@ -69,6 +69,8 @@ def test_runs_whose_backfit_the_cap_cut_are_counted_and_runs_recorded_before_the
     ([RUNS[4]], {"duration_s": 240.0}, "differs from the sweeps before it in record length or effect size"),
     ([RUNS[4]], {"size_factor": 3.0}, "size factors [1.0, 3.0]"),
     ([RUNS[4]], {"library": list(LIBRARY[:-1])}, "was swept with another library"),
+    # a run without the key was swept before the lag was fitted, with the candidate's constant
+    ([dict(RUNS[4], seed=5, plant_lag_fitted=True)], {}, "in how the plant scored a named hysteresis's lag"),
     ([RUNS[4]], {"starting_structure": list(STARTING_STRUCTURE) + ["drift"]}, "another starting structure"),
 ])
 def test_parts_that_cannot_be_compared_are_refused_in_one_line(tmp_path, capsys, second, changes, named):

@@ -80,7 +80,8 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
     and scored with the plant replay (``plant_floor``) as a run whose shrink the plant scores reads
     its bound against. A named hysteresis's lag in the plant is fitted, as the command fits it
     (``fit_plant_lag`` False: the candidate's constant, ``--fixed-plant-lag``); each run records
-    the final model's fitted lag (``hysteresis_lag_s``, None where none was fitted)."""
+    the final model's fitted lag (``hysteresis_lag_s``, None where none was fitted) and whether the
+    lag was fitted (``plant_lag_fitted``)."""
     import tempfile
 
     from joblib import Parallel, delayed
@@ -114,7 +115,7 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
                 "unexplained": result.unexplained, "gap_before": pooled_rmse(result.residual_before.joints, result.units),
                 "plant_gap_before": pooled_gap(plant.gap_before) if plant.applies else None, **floor,
                 "shrink": shrink, "oracle_shrink": oracle_shrink, "scored_by": scored_by,
-                "hysteresis_lag_s": plant.hysteresis_lag if plant.applies else None,
+                "plant_lag_fitted": bool(fit_plant_lag), "hysteresis_lag_s": plant.hysteresis_lag if plant.applies else None,
                 "quasi_static_shrink": float(result.shrink), "oracle_quasi_static_shrink": quasi_oracle_shrink,
                 "residual_structure": structure_shares(result), "oracle_residual_structure": structure_shares(fit),
                 "signature": list(result.signature), "command_shrink": command_shrink(result),
@@ -273,11 +274,13 @@ def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
     summarised as one: ``(runs, duration_s, size_factor, files)``.
 
     Sweeps take hours, so they are often run in parts (other seeds, other effects, other hosts).
-    The parts must share the record length, the effect sizes, and this version's starting structure
-    and library, and no hidden effect may appear twice with the same seed; anything else raises
-    :class:`UsageError` naming the file and what differs.
+    The parts must share the record length, the effect sizes, how a named hysteresis's lag was
+    scored by the plant (fitted, or the candidate's constant: a run without ``plant_lag_fitted``
+    was swept before the lag was fitted), and this version's starting structure and library, and no
+    hidden effect may appear twice with the same seed; anything else raises :class:`UsageError`
+    naming the file and what differs.
     """
-    runs, seen, files, lengths, factors = [], {}, [], set(), set()
+    runs, seen, files, lengths, factors, lags = [], {}, [], set(), set(), set()
     for path in map(Path, paths):
         file = path / "confusion.json" if path.is_dir() else path
         try:
@@ -296,6 +299,10 @@ def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
             raise UsageError(f"{file} differs from the sweeps before it in record length or effect size "
                              f"(durations {sorted(lengths)} s, size factors {sorted(factors)})")
         for run in document["runs"]:
+            lags.add(bool(run.get("plant_lag_fitted", False)))
+            if len(lags) > 1:
+                raise UsageError(f"{file} differs from the sweeps before it in how the plant scored a named hysteresis's "
+                                 "lag (fitted in some runs, the candidate's constant in others)")
             key = (run["hidden"], run["seed"])
             if key in seen:
                 raise UsageError(f"{run['hidden']} with seed {run['seed']} is in both {seen[key]} and {file}")
