@@ -226,6 +226,7 @@ def options_that_apply(args) -> dict[str, tuple[bool, str]]:
     raven_measured = args.measured is not None and not dvrk
     analysed_blind = (args.hidden_effect is not None or raven_measured,
                       "--measured RAVEN-II data and --hidden-effect only")
+    plant_scored = (analysed_blind[0] or args.sweep, "--measured RAVEN-II data, --hidden-effect and --sweep only")
     return {
         "log_rate": (args.hidden_effect is not None,
                      "--hidden-effect only: it is the rate of the data that option generates"),
@@ -233,9 +234,8 @@ def options_that_apply(args) -> dict[str, tuple[bool, str]]:
         "backfit_rounds": analysed_blind,
         "max_effects": analysed_blind,
         "plant_refit": analysed_blind,
-        "fit_plant_lag": (analysed_blind[0] or args.sweep, "--measured RAVEN-II data, --hidden-effect and --sweep only"),
-        "fixed_plant_lag": (analysed_blind[0] or args.sweep,
-                            "--measured RAVEN-II data, --hidden-effect and --sweep only"),
+        "fit_plant_lag": plant_scored,
+        "fixed_plant_lag": plant_scored,
         "backfit_patience": analysed_blind,
         "seed": (generated, "generated data (--hidden-effect, --ablate, --sweep): measured data carry no seed"),
         "seeds": (args.sweep, "--sweep only"),
@@ -298,7 +298,8 @@ def main(argv=None) -> int:
                      help="--measured RAVEN-II data, --hidden-effect and --sweep only: where the plant replay scores a "
                           f"named hysteresis, give it the candidate's lag of {HYSTERESIS_RESPONSE_TIME:g} s behind the "
                           "stretch (the simulator's default; how hysteresis was scored before the lag was fitted) "
-                          f"instead of fitting the lag to the plant on the fit part (0 to {HYSTERESIS_LAG_RANGE[1]:g} s)")
+                          "instead of fitting the lag to the plant on the fit part "
+                          f"(0 to {HYSTERESIS_LAG_RANGE[1]:g} s)")
     lag.add_argument("--fit-plant-lag", action="store_true", default=None,
                      help="the default, kept so that earlier commands run: fit the lag of a named hysteresis to the "
                           "plant")

@@ -357,8 +357,7 @@ def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 
     """The blind analysis of ``effect``'s generated record scored as its report scored it before the
     lag of a hysteresis was fitted by default (:func:`~studies.common.plant_scoring.score_with_plant`
     with the candidate's fixed lag, ``--fixed-plant-lag``: the refinements below were measured so),
-    then its named effects refitted with
-    the plant replay as ``--plant-refit`` refits them
+    then its named effects refitted with the plant replay as ``--plant-refit`` refits them
     (:func:`~studies.common.plant_scoring.refit_with_plant`, at most ``max_evaluations`` replays).
 
     Whether a plant-scored shrink short of its floor's bound is the quasi-static fit's values or the
@@ -475,7 +474,8 @@ def plant_decomposed(effect: str, seed: int, duration: float, size_factor: float
     ``effect``'s generated record is analysed blind and scored as its report scored it before the
     lag of a hysteresis was fitted by default (:func:`~studies.common.plant_scoring.score_with_plant`
     with the candidate's fixed lag, at most ``max_evaluations`` replays per Coulomb-force refit): the
-    swapped models are scored with the lags they carry, so that only the swapped part differs. Where the analysis named ``effect`` (one of
+    swapped models are scored with the lags they carry, so that only the swapped part differs.
+    Where the analysis named ``effect`` (one of
     :data:`~studies.common.plant_scoring.PLANT_REFIT_EFFECTS`, whose generator carries one effect
     object of that name), each model of :data:`DECOMPOSED_MODELS` is scored the same way: its
     Coulomb forces refitted with the plant replay on the fit part, its held-out gap over the

@@ -115,7 +115,8 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
                 "unexplained": result.unexplained, "gap_before": pooled_rmse(result.residual_before.joints, result.units),
                 "plant_gap_before": pooled_gap(plant.gap_before) if plant.applies else None, **floor,
                 "shrink": shrink, "oracle_shrink": oracle_shrink, "scored_by": scored_by,
-                "plant_lag_fitted": bool(fit_plant_lag), "hysteresis_lag_s": plant.hysteresis_lag if plant.applies else None,
+                "plant_lag_fitted": bool(fit_plant_lag),
+                "hysteresis_lag_s": plant.hysteresis_lag if plant.applies else None,
                 "quasi_static_shrink": float(result.shrink), "oracle_quasi_static_shrink": quasi_oracle_shrink,
                 "residual_structure": structure_shares(result), "oracle_residual_structure": structure_shares(fit),
                 "signature": list(result.signature), "command_shrink": command_shrink(result),
@@ -301,8 +302,8 @@ def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
         for run in document["runs"]:
             lags.add(bool(run.get("plant_lag_fitted", False)))
             if len(lags) > 1:
-                raise UsageError(f"{file} differs from the sweeps before it in how the plant scored a named hysteresis's "
-                                 "lag (fitted in some runs, the candidate's constant in others)")
+                raise UsageError(f"{file} differs from the sweeps before it in how the plant scored a named "
+                                 "hysteresis's lag (fitted in some runs, the candidate's constant in others)")
             key = (run["hidden"], run["seed"])
             if key in seen:
                 raise UsageError(f"{run['hidden']} with seed {run['seed']} is in both {seen[key]} and {file}")
