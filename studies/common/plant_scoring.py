@@ -184,9 +184,9 @@ def with_plant_friction_and_lag(model, signals, split, robot,
         return lagged.with_effect(friction.replace(force=np.r_[x[1:] * forces[:3], forces[3:]]))
 
     low, high = HYSTERESIS_LAG_RANGE
-    x, replays = plant_fit(with_lag(model, HYSTERESIS_LAG_START), build, np.r_[HYSTERESIS_LAG_START / unit, np.ones(3)],
-                           [(low / unit, high / unit)] + [FRICTION_FACTOR_RANGE] * 3, signals, split, robot,
-                           max_evaluations)
+    start = np.ones(4)  # the lag at HYSTERESIS_LAG_START, the forces as the model has them
+    x, replays = plant_fit(build(start), build, start, [(low / unit, high / unit)] + [FRICTION_FACTOR_RANGE] * 3,
+                           signals, split, robot, max_evaluations)
     fitted = build(x)
     return fitted, x[1:], float(fitted.params.effect("hysteresis").response_time[0]), replays
 
