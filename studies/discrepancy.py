@@ -9,6 +9,7 @@
     python studies/discrepancy.py --measured ../shared/data/dvrk_hwang2020
     python studies/discrepancy.py --sweep --seeds 5 --duration 240  # hidden vs named, with the oracle
     python studies/discrepancy.py --merge-sweeps PART1 PART2        # one table from sweeps run apart
+    python studies/discrepancy.py --merge-sweeps RUN1 RUN2 ...      # the same table from --hidden-effect runs
 
 ``--measured PATH`` is the blind analysis. On RAVEN-II data (a dataset file ``.parquet``/``.csv``,
 ROS bags, or a folder of either) it always starts from the same structure, the cable model of
@@ -258,7 +259,8 @@ def main(argv=None) -> int:
                         help=f"ablation: the model lacks one of {', '.join(ABLATION_CHOICES)}")
     source.add_argument("--sweep", action="store_true", help="confusion matrix of hidden vs named effects")
     source.add_argument("--merge-sweeps", type=existing_path, nargs="+", metavar="DIR",
-                        help="one confusion matrix from sweeps run apart (their --out folders or confusion.json)")
+                        help="one confusion matrix from sweeps run apart and single --hidden-effect runs "
+                             "(their --out folders, confusion.json or report.json)")
     parser.add_argument("--seed", type=non_negative_int, default=None,
                         help="seed of generated data (default 0; --sweep: its first seed)")
     parser.add_argument("--seeds", type=positive_int, default=None, help="seeds per effect for --sweep (default 3)")

@@ -311,6 +311,28 @@ def test_starting_structure_and_library_are_the_same_whatever_is_hidden(cli_runs
         assert report["library"] == list(LIBRARY)
 
 
+def test_a_command_run_is_a_row_of_the_sweep_table_with_its_reports_figures(cli_runs, tmp_path):
+    from studies.discrepancy import main
+
+    folder = cli_runs("capstan_runout")
+    report = report_of(folder)
+    assert main(["--merge-sweeps", str(folder), "--out", str(tmp_path / "table")]) == 0
+    (run,) = json.loads((tmp_path / "table" / "confusion.json").read_text())["runs"]
+    assert (run["hidden"], run["seed"], run["named_first"]) == ("capstan_runout", RUN_OF["capstan_runout"][0],
+                                                                "unexplained")
+    assert run["shrink"] == report["shrink"] and run["oracle_shrink"] == report["oracle_shrink"]
+    assert run["signature"] == report["signature"] and run["scored_by"] == report["scored_by"]
+    # the bound the table reads from the report's floor is the one the report states
+    summary = (tmp_path / "table" / "confusion.md").read_text().split("## Confusion matrix")[0]
+    row = next(line for line in summary.splitlines() if line.startswith("| capstan_runout |"))
+    bound = 100 * report["floor_bound"]
+    assert f"| {bound:.1f} [{bound:.1f}, {bound:.1f}] | yes |" in row, row
+    # the record with nothing hidden was generated at another size: the two are not one table
+    with pytest.raises(SystemExit):
+        main(["--merge-sweeps", str(cli_runs("none")), str(folder), "--out", str(tmp_path / "mixed")])
+    assert not (tmp_path / "mixed").exists()
+
+
 @pytest.mark.parametrize("name", ["coupling", "viscous_friction", "cable_stretch"])
 def test_an_effect_of_the_starting_structure_cannot_be_hidden(tmp_path, capsys, name):
     from studies.discrepancy import main

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from studies.common.discrepancy_runs import LIBRARY, STARTING_STRUCTURE
@@ -137,3 +138,77 @@ def test_a_run_the_plant_scored_reads_its_bound_against_the_floor_the_plant_scor
     assert rows[("payload", "0")][9] == "90.0"
     # the summary has no bound for backlash, one of whose runs has none
     assert _cells(_summary_table(text), "backlash")[5] == "-"
+
+
+def _report(hidden=("backlash",), seed=0, named=("backlash",), plant=True, **changes) -> dict:
+    """A ``--hidden-effect`` run's report.json, with the keys a row of the table reads (SI gaps)."""
+    gap = [1e-4, 2e-4, 3e-6]
+    document = {
+        "analysis": "blind", "starting_structure": list(STARTING_STRUCTURE), "library": list(LIBRARY),
+        "named_effects": list(named), "unexplained": False, "equivalent": {}, "rivals": {}, "signature": [],
+        "shrink": 0.6, "scored_by": "plant replay" if plant else "quasi-static replay",
+        "quasi_static": {"gap_before": gap, "gap_after": [5e-5, 1e-4, 2e-6], "shrink": 0.5},
+        "plant_replay": {"applies": plant, "gap_before": [8e-5, 1.5e-4, 2e-6], "fits_lag": True,
+                         "hysteresis_lag_s": None},
+        "residual_structure": [0.1, 0.05, 0.0], "oracle_residual_structure": [0.1, 0.05, 0.0],
+        "backfit_capped": [], "oracle_backfit_capped": [],
+        "controller": {"command_gap_before": [3.0, 4.0, 0.0], "command_gap_after": [3.0, 4.0, 0.0]},
+        "hidden_effect": list(hidden), "seed": seed, "duration_s": 1200.0, "size_factor": 1.0,
+        "oracle_shrink": 0.6, "oracle_quasi_static": {"shrink": 0.5},
+        "floor_gap": [5e-5, 1e-4, 1e-6], "plant_floor_gap": [4e-5, 5e-5, 1e-6] if plant else None}
+    document.update(changes)
+    return document
+
+
+def _write_report(folder, document):
+    folder.mkdir(parents=True)
+    (folder / "report.json").write_text(json.dumps(document))
+    return folder
+
+
+def test_single_runs_are_rows_whose_bound_is_read_against_their_own_floor(tmp_path):
+    first = _write_report(tmp_path / "a", _report(seed=0))
+    second = _write_report(tmp_path / "b", _report(seed=1, plant=False, shrink=0.45, oracle_shrink=0.45))
+    nothing = _write_report(tmp_path / "c", _report(hidden=(), named=(), seed=0, shrink=0.0, oracle_shrink=0.0,
+                                                    plant=False))
+    assert main(["--merge-sweeps", str(first), str(second / "report.json"), str(nothing),
+                 "--out", str(tmp_path / "m")]) == 0
+    merged = json.loads((tmp_path / "m" / "confusion.json").read_text())
+    assert [(r["hidden"], r["seed"], r["named_first"]) for r in merged["runs"]] == [
+        ("none", 0, "none"), ("backlash", 0, "backlash"), ("backlash", 1, "backlash")]
+    assert merged["runs"][1]["command_shrink"] == 0.0 and merged["runs"][1]["plant_lag_fitted"] is True
+    # pooled in degrees and millimetres, by hand: seed 0 was scored by the plant and reads its plant
+    # floor, seed 1 was not and reads its quasi-static floor
+    deg = 180.0 / np.pi
+
+    def pooled(rad_rad_m):
+        return np.sqrt(np.mean(np.square([rad_rad_m[0] * deg, rad_rad_m[1] * deg, rad_rad_m[2] * 1e3])))
+
+    plant_bound = 1.0 - pooled([4e-5, 5e-5, 1e-6]) / pooled([8e-5, 1.5e-4, 2e-6])
+    quasi_bound = 1.0 - pooled([5e-5, 1e-4, 1e-6]) / pooled([1e-4, 2e-4, 3e-6])
+    runs_table = (tmp_path / "m" / "confusion.md").read_text().split("## Runs")[1]
+    backlash_rows = [row.strip("|").split("|") for row in runs_table.splitlines() if row.startswith("| backlash |")]
+    assert [row[9].strip() for row in backlash_rows] == [f"{100 * plant_bound:.1f}", f"{100 * quasi_bound:.1f}"]
+    table = _summary_table((tmp_path / "m" / "confusion.md").read_text())
+    # 60 % and 45 %, each its oracle's: the goal's second term holds where the first does not
+    assert _cells(table, "backlash")[1:4] == ["2 of 2", f"{pooled([1e-4, 2e-4, 3e-6]):.4f}",
+                                              "52.5 [45.0, 60.0]"]
+    assert _cells(table, "backlash")[6] == "yes"
+
+
+@pytest.mark.parametrize("changes, named", [
+    ({"analysis": "blind", "hidden_effect": None}, "is not the report of a --hidden-effect run"),
+    ({"analysis": "ablation"}, "is not the report of a --hidden-effect run (analysis 'ablation'"),
+    ({"hidden_effect": ["hysteresis", "payload"]}, "hides 2 effects (hysteresis, payload); a row of the table is one"),
+    ({"plant_replay": None}, "is not a complete --hidden-effect report (TypeError"),
+    ({"size_factor": 3.0}, "size factors [1.0, 3.0]"),
+])
+def test_reports_that_cannot_be_rows_are_refused_in_one_line(tmp_path, capsys, changes, named):
+    first = _write_report(tmp_path / "a", _report(seed=0))
+    other = _write_report(tmp_path / "b", _report(seed=1, **changes))
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--merge-sweeps", str(first), str(other), "--out", str(tmp_path / "m")])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert exit_info.value.code == 2
+    assert len(lines) == 1 and named in lines[0], lines
+    assert not (tmp_path / "m").exists()

@@ -205,8 +205,14 @@ def command_shrink(result: DiscrepancyResult) -> float | None:
     check = result.controller
     if check is None:
         return None
-    before = float(np.sqrt(np.mean(np.square(check.held_out_gap_before))))
-    return float(1.0 - np.sqrt(np.mean(np.square(check.held_out_gap_kept))) / before) if before > 0 else 0.0
+    return command_gap_shrink(check.held_out_gap_before, check.held_out_gap_kept)
+
+
+def command_gap_shrink(before, after) -> float:
+    """1 - after/before of two per-joint held-out command gaps (N m), each pooled over the joints
+    as a root mean square; 0 where there was no gap."""
+    pooled = float(np.sqrt(np.mean(np.square(before))))
+    return float(1.0 - np.sqrt(np.mean(np.square(after))) / pooled) if pooled > 0 else 0.0
 
 
 def _controller_document(result: DiscrepancyResult) -> dict | None:

@@ -15,7 +15,7 @@ from tqdm.auto import tqdm
 
 from simulation.discrepancy import WorkflowSettings
 from simulation.discrepancy.signals import RAVEN_UNITS, pooled_rmse
-from studies.common.discrepancy_report import command_shrink, scored_gaps, structure_shares
+from studies.common.discrepancy_report import command_gap_shrink, command_shrink, scored_gaps, structure_shares
 from studies.common.discrepancy_runs import (
     HIDDEN_CHOICES,
     LIBRARY,
@@ -270,11 +270,78 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
     return document
 
 
-def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
-    """The runs of sweeps made apart (each a folder holding ``confusion.json``, or that file), to be
-    summarised as one: ``(runs, duration_s, size_factor, files)``.
+def run_of_report(document: dict, file) -> dict:
+    """The sweep run (as :func:`sweep` records one) of the ``report.json`` of one ``--hidden-effect``
+    run, read from ``file``, so that runs made one command per seed are summarised as a sweep is.
 
-    Sweeps take hours, so they are often run in parts (other seeds, other effects, other hosts).
+    Only a run that knows its generator can be a row: a blind analysis (``--measured``), an ablation
+    or a run hiding more than one effect raises :class:`UsageError` naming the file. The floors are
+    the report's own (``floor_gap``, ``plant_floor_gap``: the same seed's record with nothing hidden),
+    so each run's bound is the one its report states.
+    """
+    if document.get("analysis") != "blind" or not isinstance(document.get("hidden_effect"), list) \
+            or "seed" not in document:
+        kind = document.get("analysis", "unknown")
+        raise UsageError(f"{file} is not the report of a --hidden-effect run (analysis {kind!r}, no hidden effect "
+                         "and seed to tabulate)")
+    hidden = document["hidden_effect"]
+    if len(hidden) > 1:
+        raise UsageError(f"{file} hides {len(hidden)} effects ({', '.join(hidden)}); a row of the table is one effect")
+    try:
+        named = list(document["named_effects"])
+        plant = document["plant_replay"]
+        quasi = document["quasi_static"]
+        first = named[0] if named else ("unexplained" if document["unexplained"] else "none")
+        run = {"hidden": hidden[0] if hidden else "none", "seed": int(document["seed"]), "named_first": first,
+               "named": named, "equivalent": {k: list(v) for k, v in document["equivalent"].items()},
+               "rivals": {k: dict(v) for k, v in document["rivals"].items()},
+               "unexplained": bool(document["unexplained"]), "gap_before": pooled_gap(quasi["gap_before"]),
+               "plant_gap_before": pooled_gap(plant["gap_before"]) if plant["applies"] else None,
+               "floor": pooled_gap(document["floor_gap"]),
+               **({"plant_floor": pooled_gap(document["plant_floor_gap"])}
+                  if document.get("plant_floor_gap") is not None else {}),
+               "shrink": float(document["shrink"]), "oracle_shrink": float(document["oracle_shrink"]),
+               "scored_by": document["scored_by"], "plant_lag_fitted": bool(plant["fits_lag"]),
+               "hysteresis_lag_s": plant.get("hysteresis_lag_s"), "quasi_static_shrink": float(quasi["shrink"]),
+               "oracle_quasi_static_shrink": float(document["oracle_quasi_static"]["shrink"]),
+               "residual_structure": document["residual_structure"],
+               "oracle_residual_structure": document["oracle_residual_structure"],
+               "signature": list(document["signature"]), "command_shrink": _command_shrink(document["controller"]),
+               "backfit_capped": list(document["backfit_capped"]),
+               "oracle_backfit_capped": list(document["oracle_backfit_capped"])}
+    except (KeyError, TypeError, ValueError, AttributeError) as error:
+        raise UsageError(f"{file} is not a complete --hidden-effect report ({type(error).__name__}: {error})") from error
+    return run
+
+
+def _command_shrink(controller: dict | None) -> float | None:
+    """:func:`~studies.common.discrepancy_report.command_shrink` from a report's ``controller`` part."""
+    if controller is None:
+        return None
+    return command_gap_shrink(controller["command_gap_before"], controller["command_gap_after"])
+
+
+def _read_part(path: Path) -> tuple[Path, dict]:
+    """The file of one part (a sweep's ``confusion.json`` or a run's ``report.json``, or the folder
+    holding one of them) and its JSON document."""
+    file = path
+    if path.is_dir():
+        file = next((path / name for name in ("confusion.json", "report.json") if (path / name).is_file()),
+                    path / "confusion.json")
+    try:
+        document = json.loads(file.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise UsageError(f"{file} is not a sweep's confusion.json ({type(error).__name__}: {error})") from error
+    return file, document
+
+
+def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
+    """The runs of sweeps made apart (each a folder holding ``confusion.json``, or that file) and of
+    single ``--hidden-effect`` runs (a folder holding ``report.json``, or that file;
+    :func:`run_of_report`), to be summarised as one: ``(runs, duration_s, size_factor, files)``.
+
+    Sweeps take hours, so they are often run in parts (other seeds, other effects, other hosts), or
+    as one command per effect and seed.
     The parts must share the record length, the effect sizes, how a named hysteresis's lag was
     scored by the plant (fitted, or the candidate's constant: a run without ``plant_lag_fitted``
     was swept before the lag was fitted), and this version's starting structure and library, and no
@@ -283,11 +350,11 @@ def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
     """
     runs, seen, files, lengths, factors, lags = [], {}, [], set(), set(), set()
     for path in map(Path, paths):
-        file = path / "confusion.json" if path.is_dir() else path
-        try:
-            document = json.loads(file.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-            raise UsageError(f"{file} is not a sweep's confusion.json ({type(error).__name__}: {error})") from error
+        file, document = _read_part(path)
+        if isinstance(document, dict) and "named_effects" in document and "runs" not in document:
+            document = {"runs": [run_of_report(document, file)],
+                        **{key: document[key] for key in ("duration_s", "size_factor", "starting_structure", "library")
+                           if key in document}}
         if not isinstance(document, dict) or not isinstance(document.get("runs"), list) or "duration_s" not in document:
             raise UsageError(f"{file} is not a sweep's confusion.json (no 'runs' and 'duration_s')")
         for key, ours in (("starting_structure", STARTING_STRUCTURE), ("library", LIBRARY)):
