@@ -310,7 +310,8 @@ def run_of_report(document: dict, file) -> dict:
                "backfit_capped": list(document["backfit_capped"]),
                "oracle_backfit_capped": list(document["oracle_backfit_capped"])}
     except (KeyError, TypeError, ValueError, AttributeError) as error:
-        raise UsageError(f"{file} is not a complete --hidden-effect report ({type(error).__name__}: {error})") from error
+        raise UsageError(f"{file} is not a complete --hidden-effect report "
+                         f"({type(error).__name__}: {error})") from error
     return run
 
 
@@ -331,7 +332,8 @@ def _read_part(path: Path) -> tuple[Path, dict]:
     try:
         document = json.loads(file.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise UsageError(f"{file} is not a sweep's confusion.json ({type(error).__name__}: {error})") from error
+        raise UsageError(f"{file} is not a sweep's confusion.json or a run's report.json "
+                         f"({type(error).__name__}: {error})") from error
     return file, document
 
 
@@ -356,7 +358,8 @@ def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
                         **{key: document[key] for key in ("duration_s", "size_factor", "starting_structure", "library")
                            if key in document}}
         if not isinstance(document, dict) or not isinstance(document.get("runs"), list) or "duration_s" not in document:
-            raise UsageError(f"{file} is not a sweep's confusion.json (no 'runs' and 'duration_s')")
+            raise UsageError(f"{file} is not a sweep's confusion.json or a run's report.json (no 'runs' and "
+                             "'duration_s', no 'named_effects')")
         for key, ours in (("starting_structure", STARTING_STRUCTURE), ("library", LIBRARY)):
             if document.get(key) != list(ours):
                 raise UsageError(f"{file} was swept with another {key.replace('_', ' ')} ({document.get(key)}) than "
