@@ -212,3 +212,19 @@ def test_reports_that_cannot_be_rows_are_refused_in_one_line(tmp_path, capsys, c
     assert exit_info.value.code == 2
     assert len(lines) == 1 and named in lines[0], lines
     assert not (tmp_path / "m").exists()
+
+
+def test_shrinks_that_are_zero_to_rounding_meet_the_goal_of_an_oracle_that_closes_nothing(tmp_path):
+    # the gravity model's error changes the controller's commands, not the joints' gap: the named
+    # model and the oracle both leave the gap as it was, 1 - after / before a rounding off zero
+    runs = [_run("gravity_model_error", 0, ("gravity_model_error",), 0.0, 1.1102230246251565e-16),
+            _run("gravity_model_error", 1, ("gravity_model_error",), -2.220446049250313e-16, 0.0),
+            _run("none", 0, (), 0.0, -2.220446049250313e-16)]
+    summarise_sweep(runs, 1200.0, tmp_path)
+    table = _summary_table((tmp_path / "confusion.md").read_text())
+    assert _cells(table, "gravity_model_error")[3:5] == ["0.0 [0.0, 0.0]", "0.0 [0.0, 0.0]"]
+    assert _cells(table, "gravity_model_error")[6] == "yes"
+    assert "-0.0" not in table
+    # a shrink short of the oracle's by more than rounding still misses it
+    summarise_sweep([_run("backlash", 0, ("backlash",), 0.30, 0.40)], 1200.0, tmp_path / "short")
+    assert _cells(_summary_table((tmp_path / "short" / "confusion.md").read_text()), "backlash")[6] == "no"
