@@ -65,6 +65,16 @@ def test_runs_whose_backfit_the_cap_cut_are_counted_and_runs_recorded_before_the
     assert "| backlash | 1 of 2 |" in table  # no run of it says how its backfit ended
 
 
+def _refused_in_one_line(first, other, named: str, tmp_path, capsys) -> None:
+    """``--merge-sweeps first other`` exits with status 2, one line that contains ``named``, and no output."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--merge-sweeps", str(first), str(other), "--out", str(tmp_path / "m")])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert exit_info.value.code == 2
+    assert len(lines) == 1 and named in lines[0], lines
+    assert not (tmp_path / "m").exists()
+
+
 @pytest.mark.parametrize("second, changes, named", [
     ([RUNS[2]], {}, "backlash with seed 0 is in both"),
     ([RUNS[4]], {"duration_s": 240.0}, "differs from the sweeps before it in record length or effect size"),
@@ -77,12 +87,7 @@ def test_runs_whose_backfit_the_cap_cut_are_counted_and_runs_recorded_before_the
 def test_parts_that_cannot_be_compared_are_refused_in_one_line(tmp_path, capsys, second, changes, named):
     first = _part(tmp_path / "a", RUNS[:3])
     other = _part(tmp_path / "b", second, **changes)
-    with pytest.raises(SystemExit) as exit_info:
-        main(["--merge-sweeps", str(first), str(other), "--out", str(tmp_path / "m")])
-    lines = capsys.readouterr().err.strip().splitlines()
-    assert exit_info.value.code == 2
-    assert len(lines) == 1 and named in lines[0], lines
-    assert not (tmp_path / "m").exists()
+    _refused_in_one_line(first, other, named, tmp_path, capsys)
 
 
 def _cells(table: str, first: str) -> list[str]:
@@ -206,12 +211,7 @@ def test_single_runs_are_rows_whose_bound_is_read_against_their_own_floor(tmp_pa
 def test_reports_that_cannot_be_rows_are_refused_in_one_line(tmp_path, capsys, changes, named):
     first = _write_report(tmp_path / "a", _report(seed=0))
     other = _write_report(tmp_path / "b", _report(seed=1, **changes))
-    with pytest.raises(SystemExit) as exit_info:
-        main(["--merge-sweeps", str(first), str(other), "--out", str(tmp_path / "m")])
-    lines = capsys.readouterr().err.strip().splitlines()
-    assert exit_info.value.code == 2
-    assert len(lines) == 1 and named in lines[0], lines
-    assert not (tmp_path / "m").exists()
+    _refused_in_one_line(first, other, named, tmp_path, capsys)
 
 
 def test_shrinks_that_are_zero_to_rounding_meet_the_goal_of_an_oracle_that_closes_nothing(tmp_path):
