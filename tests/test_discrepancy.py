@@ -311,7 +311,8 @@ def test_starting_structure_and_library_are_the_same_whatever_is_hidden(cli_runs
         assert report["library"] == list(LIBRARY)
 
 
-def test_a_command_run_is_a_row_of_the_sweep_table_with_its_reports_figures(cli_runs, tmp_path):
+def test_a_command_run_is_a_row_of_the_sweep_table_with_its_reports_figures(cli_runs, tmp_path, capsys):
+    from studies.common.discrepancy_runs import shrink_bound
     from studies.discrepancy import main
 
     folder = cli_runs("capstan_runout")
@@ -323,13 +324,15 @@ def test_a_command_run_is_a_row_of_the_sweep_table_with_its_reports_figures(cli_
     assert run["shrink"] == report["shrink"] and run["oracle_shrink"] == report["oracle_shrink"]
     assert run["signature"] == report["signature"] and run["scored_by"] == report["scored_by"]
     # the bound the table reads from the report's floor is the one the report states
+    assert shrink_bound(run["floor"], run["gap_before"]) == pytest.approx(report["floor_bound"], rel=1e-12)
     summary = (tmp_path / "table" / "confusion.md").read_text().split("## Confusion matrix")[0]
     row = next(line for line in summary.splitlines() if line.startswith("| capstan_runout |"))
-    bound = 100 * report["floor_bound"]
-    assert f"| {bound:.1f} [{bound:.1f}, {bound:.1f}] | yes |" in row, row
+    assert row.startswith("| capstan_runout | 1 of 1 |") and row.endswith("| yes |"), row
     # the record with nothing hidden was generated at another size: the two are not one table
+    capsys.readouterr()
     with pytest.raises(SystemExit):
         main(["--merge-sweeps", str(cli_runs("none")), str(folder), "--out", str(tmp_path / "mixed")])
+    assert "size factors [1.0, 12.5]" in capsys.readouterr().err
     assert not (tmp_path / "mixed").exists()
 
 
