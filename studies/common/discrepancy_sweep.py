@@ -62,6 +62,12 @@ def _percent(fractions) -> np.ndarray:
     return np.round(np.asarray(fractions, dtype=float) * 100, SHRINK_DIGITS) + 0.0
 
 
+def _first_named(named, unexplained: bool) -> str:
+    """The confusion matrix's column of a run: the first effect ``named``, else "unexplained" where the
+    residual was flagged, else "none"."""
+    return named[0] if named else ("unexplained" if unexplained else "none")
+
+
 def _named_first(hidden: str, result) -> bool:
     """Whether the first effect named is the hidden one, or one the data cannot tell from it; for an
     effect the library lacks, whether nothing was named and the residual was flagged unexplained."""
@@ -120,8 +126,8 @@ def sweep(effects, seeds, duration: float, out: Path, progress: bool = True, siz
             # this record is the seed's floor record: its starting model scored as a plant-scored run's is
             robot = RavenII(signals.arm, check_limits=False)
             floor["plant_floor"] = pooled_gap(plant_floor_gap((signals, split, robot, result.model_before)))
-        first = result.named_effects[0] if result.named_effects else ("unexplained" if result.unexplained else "none")
-        return {"hidden": effect, "seed": seed, "named_first": first, "named": list(result.named_effects),
+        return {"hidden": effect, "seed": seed, "named_first": _first_named(result.named_effects, result.unexplained),
+                "named": list(result.named_effects),
                 "equivalent": {k: list(v) for k, v in result.equivalent.items()},
                 "rivals": {k: dict(v) for k, v in result.rivals.items()},
                 "unexplained": result.unexplained, "gap_before": pooled_rmse(result.residual_before.joints, result.units),
@@ -216,9 +222,9 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
                  "; ".join(f"{k} = {', '.join(v)}" for k, v in r["equivalent"].items()),
                  "; ".join(f"{k} ~ {n} ({d:.2f})" for k, v in r.get("rivals", {}).items() for n, d in v.items()),
                  r["gap_before"],
-                 100 * r["shrink"], 100 * r["oracle_shrink"],
+                 *_percent([r["shrink"], r["oracle_shrink"]]),
                  # runs recorded before the plant scored them were scored quasi-statically
-                 100 * r.get("quasi_static_shrink", r["shrink"]),
+                 _percent([r.get("quasi_static_shrink", r["shrink"])])[0],
                  "-" if bound_of(r) is None else f"{100 * bound_of(r):.1f}",
                  _share_text(r.get("residual_structure")), _share_text(r.get("oracle_residual_structure")),
                  "-" if r.get("command_shrink") is None else f"{100 * r['command_shrink']:.1f}"]
@@ -303,8 +309,8 @@ def run_of_report(document: dict, file) -> dict:
         named = list(document["named_effects"])
         plant = document["plant_replay"]
         quasi = document["quasi_static"]
-        first = named[0] if named else ("unexplained" if document["unexplained"] else "none")
-        run = {"hidden": hidden[0] if hidden else "none", "seed": int(document["seed"]), "named_first": first,
+        run = {"hidden": hidden[0] if hidden else "none", "seed": int(document["seed"]),
+               "named_first": _first_named(named, document["unexplained"]),
                "named": named, "equivalent": {k: list(v) for k, v in document["equivalent"].items()},
                "rivals": {k: dict(v) for k, v in document["rivals"].items()},
                "unexplained": bool(document["unexplained"]), "gap_before": pooled_gap(quasi["gap_before"]),
