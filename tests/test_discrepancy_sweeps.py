@@ -52,8 +52,11 @@ def test_parts_merge_into_the_table_of_one_sweep_over_the_same_runs(tmp_path):
     assert merged["merged_from"] == [str(first / "confusion.json"), str(second / "confusion.json")]
     table = _summary_table((tmp_path / "m" / "confusion.md").read_text())
     assert table == _summary_table((tmp_path / "whole" / "confusion.md").read_text())
-    # backlash named on one seed of two, hysteresis on its one: the goal is counted per effect
-    assert "| backlash | 1 of 2 |" in table and "| no |" in table and "| hysteresis | 1 of 1 |" in table
+    # backlash named on one seed of two, hysteresis on its one: the goal is counted per effect, and
+    # a miss says which part: seed 0 closes its oracle's 40 %, seed 1 none of its oracle's 35 %
+    assert _cells(table, "backlash")[1] == "1 of 2" and _cells(table, "hysteresis")[1] == "1 of 1"
+    assert _cells(table, "backlash")[6] == "no: named first on 1 of 2; seed 1 closes 0.0 % (oracle 35.0 %)"
+    assert _cells(table, "hysteresis")[6] == "yes"
 
 
 def test_runs_whose_backfit_the_cap_cut_are_counted_and_runs_recorded_before_the_count_are_not(tmp_path):
@@ -229,4 +232,5 @@ def test_shrinks_that_are_zero_to_rounding_meet_the_goal_of_an_oracle_that_close
     assert "-0.0" not in table and "-0.0" not in text
     # a shrink short of the oracle's by more than rounding still misses it
     summarise_sweep([_run("backlash", 0, ("backlash",), 0.30, 0.40)], 1200.0, tmp_path / "short")
-    assert _cells(_summary_table((tmp_path / "short" / "confusion.md").read_text()), "backlash")[6] == "no"
+    assert _cells(_summary_table((tmp_path / "short" / "confusion.md").read_text()), "backlash")[6] == \
+        "no: seed 0 closes 30.0 % (oracle 40.0 %)"
