@@ -212,7 +212,7 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
         shrink = _percent([r["shrink"] for r in mine])
         closable = _percent([r["oracle_shrink"] for r in mine])
         gap = np.array([r["gap_before"] for r in mine])
-        goal = _goal_misses(e, mine, named, shrink, closable)
+        misses = _goal_misses(e, mine, named, shrink, closable)
         left = [r for r in mine if r["named"] and r["unexplained"]]
         also = sum(_repeats(r.get("oracle_residual_structure")) for r in left)
         notes = [f"{len(left)} then unexplained, the oracle's residual too in {also}"] if left else []
@@ -228,7 +228,7 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
                              f"{np.mean(closable):.1f} [{np.min(closable):.1f}, {np.max(closable):.1f}]",
                              "-" if bounds is None else
                              f"{np.mean(bounds):.1f} [{np.min(bounds):.1f}, {np.max(bounds):.1f}]",
-                             "-" if e == "none" else ("no: " + "; ".join(goal) if goal else "yes")])
+                             "-" if e == "none" else ("no: " + "; ".join(misses) if misses else "yes")])
     run_rows = [[r["hidden"], str(r["seed"]), verdict(r["named"], r["unexplained"]),
                  "; ".join(f"{k} = {', '.join(v)}" for k, v in r["equivalent"].items()),
                  "; ".join(f"{k} ~ {n} ({d:.2f})" for k, v in r.get("rivals", {}).items() for n, d in v.items()),
