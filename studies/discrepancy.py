@@ -4,7 +4,7 @@
     python studies/discrepancy.py --measured results/discrepancy/measured.parquet --out results/again
     python studies/discrepancy.py --hidden-effect none
     python studies/discrepancy.py --hidden-effect hysteresis --plant-refit   # named effects refitted with the plant
-    python studies/discrepancy.py --hidden-effect hysteresis --fixed-plant-lag  # the scoring's lag fixed at 0.05 s
+    python studies/discrepancy.py --hidden-effect hysteresis --fixed-plant-lag  # the scoring's lag fixed at 0.1 s
     python studies/discrepancy.py --ablate coupling                 # the model lacks a term the data have
     python studies/discrepancy.py --measured ../shared/data/dvrk_hwang2020
     python studies/discrepancy.py --sweep --seeds 5 --duration 240  # hidden vs named, with the oracle
@@ -54,9 +54,10 @@ workflow's models'. A fitted hysteresis lags the stretch in the plant (the quasi
 no such lag): the score fits that lag to the plant on the fit part, with each model's Coulomb
 forces, from a round 0.1 s (``plant_replay.hysteresis_lag_s``; the oracle and ``--plant-refit`` fit
 theirs too), so that nothing it scores with is a value the generator shares.
-``--fixed-plant-lag`` takes the candidate's constant 0.05 s instead, which equals the simulator's
-default: how the plant-scored hysteresis figures measured before the lag was fitted by default
-were scored (``--fit-plant-lag``, the default, is kept so that earlier commands still run).
+``--fixed-plant-lag`` takes the candidate's constant instead, a round 0.1 s; until 2026-12-06 that
+constant was 0.05 s, the simulator's default, and the plant-scored hysteresis figures measured
+before the lag was fitted by default were scored with it (``--fit-plant-lag``, the default, is kept
+so that earlier commands still run).
 
 Every run writes ``DIR/report.json``, ``DIR/report.md`` and PNG plots, and exits 0 whenever the
 workflow ran, whatever it found; a mistake in the arguments or an unreadable input file gets one
@@ -168,7 +169,7 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     named backlash, hysteresis or drift is then refitted with the plant replay
     (:func:`~studies.common.plant_scoring.refit_with_plant`), reported beside those figures. The
     plant score fits the lag of a named hysteresis; with ``fit_plant_lag`` False it takes the
-    candidate's constant (``candidates.HYSTERESIS_RESPONSE_TIME``, the simulator's default).
+    candidate's constant (``candidates.HYSTERESIS_RESPONSE_TIME``, a round 0.1 s).
 
     Returns the result, signals, split, plant score and plant refit (None unless asked for).
     ``shown_path`` is the input's name in the report (where the file will be once published);
@@ -299,7 +300,8 @@ def main(argv=None) -> int:
     lag.add_argument("--fixed-plant-lag", action="store_true", default=None,
                      help="--measured RAVEN-II data, --hidden-effect and --sweep only: where the plant replay scores a "
                           f"named hysteresis, give it the candidate's lag of {HYSTERESIS_RESPONSE_TIME:g} s behind the "
-                          "stretch (the simulator's default; how hysteresis was scored before the lag was fitted) "
+                          "stretch (a round value; the plant-scored hysteresis figures of the days before the lag "
+                          "was fitted used 0.05 s, the simulator's default) "
                           "instead of fitting the lag to the plant on the fit part "
                           f"(0 to {HYSTERESIS_LAG_RANGE[1]:g} s)")
     lag.add_argument("--fit-plant-lag", action="store_true", default=None,

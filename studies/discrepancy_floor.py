@@ -356,7 +356,8 @@ def plant_refined(effect: str, seed: int, duration: float, size_factor: float = 
                   stiffness: bool = False) -> dict:
     """The blind analysis of ``effect``'s generated record scored as its report scored it before the
     lag of a hysteresis was fitted by default (:func:`~studies.common.plant_scoring.score_with_plant`
-    with the candidate's fixed lag, ``--fixed-plant-lag``: the refinements below were measured so),
+    with the candidate's fixed lag, ``--fixed-plant-lag``: the refinements below were measured so,
+    with the candidate's lag at the simulator's 0.05 s until 2026-12-06 and a round 0.1 s since),
     then its named effects refitted with the plant replay as ``--plant-refit`` refits them
     (:func:`~studies.common.plant_scoring.refit_with_plant`, at most ``max_evaluations`` replays).
 

@@ -5,15 +5,16 @@ studies/discrepancy.py --hidden-effect hysteresis --seed S --fixed-plant-lag --o
 (twenty minutes of random motion with the hysteresis hidden, written to ``DIR/measured.parquet``, the
 blind analysis of that file scored with the plant, a fitted hysteresis lagging by the candidate's
 constant, then the oracle and both floors: the command as its tables here were measured, before it
-fitted the lag by default) with up to four changes:
+fitted the lag by default, except that the candidate's constant is now a round 0.1 s and was then
+0.05 s, the generator's; ``--scorer-lag 0.05`` runs it as then) with up to four changes:
 
 ``--response-time T``
     The generator's hysteresis follows the cable's stretch over T seconds (its
     ``Hysteresis.response_time``, a first-order lag; 0.05 s by default, 0 at every plant
     sub-step). The quasi-static replay's Bouc-Wen follows the logged stretch sample by sample
     whatever T is. The plant replay that scores the final models gives a fitted hysteresis the
-    same T, so that the scorer's plant is the generator's, as the command's ``--fixed-plant-lag``
-    is at the default T.
+    same T, so that the scorer's plant is the generator's (as the command's ``--fixed-plant-lag``
+    was at the default T while the candidate's constant was 0.05 s).
 ``--scorer-lag L``
     The plant replay gives a fitted hysteresis the lag L seconds instead (the candidate's
     ``candidates.HYSTERESIS_RESPONSE_TIME``, or T above), while the generator keeps its own: how much
@@ -30,8 +31,8 @@ fitted the lag by default) with up to four changes:
 
 ``--backfit-patience N`` passes the command's option of that name to the blind analysis (and so
 to the oracle). None of these changes the analysis's code path: the record reaches it as a file.
-With none of them the run is the command's with ``--fixed-plant-lag``; with ``--fit-scorer-lag``
-alone, the command's. Run::
+With none of them the run is the command's with ``--fixed-plant-lag`` (the scorer's lag the
+candidate's 0.1 s, the generator's 0.05 s); with ``--fit-scorer-lag`` alone, the command's. Run::
 
     python studies/discrepancy_hysteresis_shape.py --seed 97 --response-time 0 --out DIR
     python studies/discrepancy_hysteresis_shape.py --seed 97 --scorer-lag 0.2 --out DIR

@@ -341,13 +341,15 @@ def test_column_means_are_numpys_to_the_last_bit_in_every_layout(layout):
 
 
 @pytest.mark.parametrize("options, generator_lag, scorer_lag, fitted", [
-    ([], 0.05, 0.05, False),
+    # the generator's lag is the simulator's 0.05 s, the candidate's a round 0.1 s: none shared by default
+    ([], 0.05, 0.1, False),
     (["--response-time", "0"], 0.0, 0.0, False),
     (["--response-time", "0", "--scorer-lag", "0.1"], 0.0, 0.1, False),
     (["--scorer-lag", "0.2", "--backfit-patience", "2"], 0.05, 0.2, False),
+    (["--scorer-lag", "0.05"], 0.05, 0.05, False),
     # a scorer that fits its lag leaves the candidate's constant alone, whatever the generator's
-    (["--response-time", "0.2", "--fit-scorer-lag"], 0.2, 0.05, True),
-    (["--fit-scorer-lag"], 0.05, 0.05, True),
+    (["--response-time", "0.2", "--fit-scorer-lag"], 0.2, 0.1, True),
+    (["--fit-scorer-lag"], 0.05, 0.1, True),
 ])
 def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypatch, tmp_path, options,
                                                                         generator_lag, scorer_lag, fitted):
@@ -378,7 +380,7 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
     patience = 2 if "--backfit-patience" in options else None
     assert seen == {"generated": (("hysteresis",), 5, [generator_lag] * 3),
                     "analysed": ("measured.parquet", patience, scorer_lag, fitted)}
-    assert candidates.HYSTERESIS_RESPONSE_TIME == 0.05
+    assert candidates.HYSTERESIS_RESPONSE_TIME == 0.1
     assert not out.exists()
 
 
@@ -408,6 +410,6 @@ def test_the_shape_study_holds_the_candidates_shape_and_lag_only_within_its_bloc
         lower, upper, built = fitted_shape_range_and_built()
         np.testing.assert_array_equal(lower, 0.0)
         np.testing.assert_array_equal(built.response_time, 0.2)
-    assert candidates.HYSTERESIS_RESPONSE_TIME == 0.05
+    assert candidates.HYSTERESIS_RESPONSE_TIME == 0.1
     _, _, built = fitted_shape_range_and_built()
-    np.testing.assert_array_equal(built.response_time, 0.05)
+    np.testing.assert_array_equal(built.response_time, 0.1)

@@ -316,6 +316,7 @@ def replace_result(result, **changes):
 
 
 def test_a_refit_with_a_fitted_lag_carries_it_to_the_model_it_scored():
+    from simulation.discrepancy import candidates
     from studies.common.plant_scoring import with_refit
 
     signals = _signals()
@@ -326,7 +327,9 @@ def test_a_refit_with_a_fitted_lag_carries_it_to_the_model_it_scored():
     lagged = with_refit(model, PlantRefit(hysteresis_lag=0.2, **common), signals)
     np.testing.assert_array_equal(lagged.params.effect("hysteresis").response_time, 0.2)
     as_candidate = with_refit(model, PlantRefit(**common), signals)
-    np.testing.assert_array_equal(as_candidate.params.effect("hysteresis").response_time, 0.05)
+    np.testing.assert_array_equal(as_candidate.params.effect("hysteresis").response_time,
+                                  candidates.HYSTERESIS_RESPONSE_TIME)
+    assert candidates.HYSTERESIS_RESPONSE_TIME == 0.1  # round, and not the simulator's 0.05 s
     np.testing.assert_allclose(lagged.params.effect("hysteresis").stiffness, [10.0, 4.0, 200.0])
     assert PlantRefit(hysteresis_lag=0.2, **common).document()["hysteresis_lag_s"] == 0.2
 
@@ -358,10 +361,12 @@ def test_a_lag_the_bounded_search_steps_a_rounding_error_past_zero_is_held_at_ze
 @pytest.mark.parametrize("fits_lag", [True, False])
 def test_the_refit_fits_the_lag_of_a_hysteresis_only_where_its_score_fitted_one(monkeypatch, fits_lag):
     import studies.common.plant_scoring as scoring
+    from simulation.discrepancy.candidates import HYSTERESIS_RESPONSE_TIME
 
     signals = _signals()
     params = nominal_parameters("left")
-    params = params.with_effect(replace(params.effect("hysteresis"), enabled=True, stiffness=[10.0, 4.0, 200.0]))
+    params = params.with_effect(replace(params.effect("hysteresis"), enabled=True, stiffness=[10.0, 4.0, 200.0],
+                                        response_time=0.07))
     result = SimpleNamespace(named_effects=("hysteresis",), model_after=RavenModel(params, np.zeros(3)))
     score = PlantScore(applies=True, gap_before=np.array([2e-4, 1e-4, 3e-6]), gap_after=np.ones(3), shrink=0.5,
                        fits_lag=fits_lag, hysteresis_lag=0.03 if fits_lag else None)
@@ -388,7 +393,9 @@ def test_the_refit_fits_the_lag_of_a_hysteresis_only_where_its_score_fitted_one(
         assert refit.hysteresis_lag == pytest.approx(0.25)
     else:
         assert refit.hysteresis_lag is None
-    np.testing.assert_allclose(seen["built"].params.effect("hysteresis").response_time, 0.25 if fits_lag else 0.05)
+    # rebuilt through the candidate: the fitted lag, or the candidate's constant where none was fitted
+    np.testing.assert_allclose(seen["built"].params.effect("hysteresis").response_time,
+                               0.25 if fits_lag else HYSTERESIS_RESPONSE_TIME)
     # weighed under the lag it starts from: the score's fitted one, or the model's own where none was fitted
-    np.testing.assert_allclose(seen["weighed at"], 0.03 if fits_lag else 0.05)
+    np.testing.assert_allclose(seen["weighed at"], 0.03 if fits_lag else 0.07)
     np.testing.assert_array_equal(refit.friction_factors, 1.0)

@@ -163,18 +163,19 @@ def _velocity_scale(model) -> np.ndarray:
     return model.params.effect("coulomb_friction").velocity_scale
 
 
-HYSTERESIS_RESPONSE_TIME = 0.05
+HYSTERESIS_RESPONSE_TIME = 0.1
 """Lag (s) of the hysteresis candidate's Bouc-Wen state behind the stretch as the candidate builds
-it; the quasi-static replay, where the candidate is fitted, has none, and only a plant replay reads
-it. The plant score of an analysis fits the lag instead (``studies/common/plant_scoring.py``, from a
-round 0.1 s), and takes nothing from this value; it is read where a plant replay does not fit the
-lag: ``studies/discrepancy.py --fixed-plant-lag`` and the diagnostics measured that way (the floor
-study's refinements, the shape study without ``--fit-scorer-lag``). A round value that keeps the
-plant's millisecond chatter from dithering the loop away; it equals the simulator's default
-(``Hysteresis.response_time``), which is why the score no longer uses it.
+it: a round tenth of a second, the same round value the plant score's lag search starts from
+(``studies/common/plant_scoring.py``), and not the simulator's default (``Hysteresis.response_time``,
+0.05 s), which the candidate held until 2026-12-06: no constant of a candidate is the generator's.
+The quasi-static replay, where the candidate is fitted, has no lag, and only a plant replay reads
+it. The plant score of an analysis fits the lag (from that 0.1 s) and takes nothing from this
+value; it is read where a plant replay does not fit the lag: ``studies/discrepancy.py
+--fixed-plant-lag`` and the diagnostics measured that way (the floor study's refinements, the
+shape study without ``--fit-scorer-lag``). Every figure of those measured before 2026-12-06 was
+measured with 0.05 s. A lag keeps the plant's millisecond chatter from dithering the loop away.
 ``studies/discrepancy_hysteresis_shape.py`` changes both together (``--response-time``) or this
-one alone (``--scorer-lag``), which measures what the shared value was worth to the fixed-lag
-score."""
+one alone (``--scorer-lag``; ``--scorer-lag 0.05`` gives a scorer the earlier constant)."""
 
 
 DRIFT_REFERENCE_SPEED = np.array([0.1, 0.1, 0.01])

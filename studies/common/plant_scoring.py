@@ -24,8 +24,9 @@ The quasi-static replay, where a hysteresis is fitted, has no lag of the hystere
 stretch; the plant does. The score fits that lag to the plant on the fit part, together with the
 Coulomb forces (:func:`with_plant_friction_and_lag`, from a round 0.1 s), and so do the oracle's
 score and :func:`refit_with_plant`. With ``fit_lag=False`` (``--fixed-plant-lag``) it takes the
-candidate's constant 0.05 s instead, which equals the simulator's default: how every plant-scored
-hysteresis figure measured before the lag was fitted by default was scored.
+candidate's constant instead (``candidates.HYSTERESIS_RESPONSE_TIME``, a round 0.1 s; until
+2026-12-06 it was 0.05 s, the simulator's default, and every plant-scored hysteresis figure
+measured before the lag was fitted by default was scored with that).
 
 This module sits in the studies layer because it joins the discrepancy package, which imports
 nothing of the simulator's engine, to the engine's plant.
@@ -66,9 +67,9 @@ replay, where the candidate is fitted, has none)."""
 
 HYSTERESIS_LAG_START = 0.1
 """Where the lag's search starts (s), and the lag under which its weights are taken
-(:func:`plant_fit`): a round tenth of a second, not the candidate's constant
-(``candidates.HYSTERESIS_RESPONSE_TIME``, which equals the simulator's default). The search's first
-pass runs along the lag over all of :data:`HYSTERESIS_LAG_RANGE`."""
+(:func:`plant_fit`): a round tenth of a second, the value of the candidate's constant
+(``candidates.HYSTERESIS_RESPONSE_TIME``) and not the simulator's default of 0.05 s. The search's
+first pass runs along the lag over all of :data:`HYSTERESIS_LAG_RANGE`."""
 
 def lag_fit_evaluations(friction_evaluations: int) -> int:
     """Plant replays allowed for a model's lag and Coulomb forces fitted together
@@ -275,8 +276,9 @@ def score_with_plant(result, signals, split, max_evaluations: int = PLANT_FRICTI
     together with the model's Coulomb forces (:func:`with_plant_scoring_fit`), from a round 0.1 s
     and weighed at it, so that nothing of the score is a value the generator shares. With
     ``fit_lag=False`` the hysteresis lags by the candidate's constant
-    (``candidates.HYSTERESIS_RESPONSE_TIME``, which equals the simulator's default), as every
-    plant-scored hysteresis figure measured before the lag was fitted by default."""
+    (``candidates.HYSTERESIS_RESPONSE_TIME``, a round 0.1 s), as every plant-scored hysteresis
+    figure measured before the lag was fitted by default was scored, with that constant at 0.05 s,
+    the simulator's default, until 2026-12-06."""
     from kinematics import RavenII
 
     reason = plant_score_reason(result, signals)
