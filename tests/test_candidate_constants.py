@@ -15,20 +15,12 @@ import pytest
 
 from simulation.discrepancy.candidates import HYSTERESIS_RESPONSE_TIME, raven_candidates
 from simulation.discrepancy.replay import RavenModel
-from simulation.discrepancy.signals import RAVEN_JOINTS, RAVEN_UNITS, MeasuredSignals
 from simulation.identification import nominal_parameters
+from raven_signals import near_still_signals
 
 UNIT_CONVENTIONS = {("drift", "time_scale")}
 """Fields that state a unit, not a property of the robot: a drift candidate's clock runs at the
 log's own time (one hour per hour), as the simulator's does unless a test compresses it."""
-
-
-def _signals(n=200):
-    time = np.arange(n) * 1e-2
-    truth = np.tile([0.9, 1.6, 0.4], (n, 1)) + 1e-3 * np.sin(time)[:, None]
-    return MeasuredSignals(time=time, truth=truth, reported=truth, drive=truth * 1.01, torque=np.zeros((n, 3)),
-                           payload_kg=np.zeros(n), homing=np.repeat([0, 1], n // 2), joint_names=RAVEN_JOINTS,
-                           units=RAVEN_UNITS, kind="raven", tool_joints=np.zeros((n, 3)))
 
 
 def _built_effects(candidate, model):
@@ -49,7 +41,7 @@ def _fixed_fields(first, second):
 
 def _effects_of_the_library():
     model = RavenModel(nominal_parameters("left"), np.zeros(3))
-    return {c.name: _built_effects(c, model) for c in raven_candidates(_signals())}
+    return {c.name: _built_effects(c, model) for c in raven_candidates(near_still_signals(homings=2))}
 
 
 EFFECTS = _effects_of_the_library()

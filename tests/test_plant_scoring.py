@@ -22,14 +22,7 @@ from studies.common.plant_scoring import (PLANT_REFIT_EFFECTS, PLANT_SCORED_EFFE
                                           plant_floor_gap, plant_held_out_gap, plant_joints, plant_score_reason,
                                           pooled_gap, refit_with_plant, score_with_plant, with_plant_friction)
 
-
-def _signals(n=200, homings=1, payload=None):
-    time = np.arange(n) * 1e-2
-    truth = np.tile([0.9, 1.6, 0.4], (n, 1)) + 1e-3 * np.sin(time)[:, None]
-    homing = np.repeat(np.arange(homings), -(-n // homings))[:n]
-    return MeasuredSignals(time=time, truth=truth, reported=truth, drive=truth * 1.01, torque=np.zeros((n, 3)),
-                           payload_kg=np.zeros(n) if payload is None else payload, homing=homing,
-                           joint_names=RAVEN_JOINTS, units=RAVEN_UNITS, kind="raven", tool_joints=np.zeros((n, 3)))
+from raven_signals import near_still_signals as _signals
 
 
 def test_the_plant_scores_the_library_effects_it_integrates_and_no_other():
