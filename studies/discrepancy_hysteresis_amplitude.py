@@ -161,7 +161,8 @@ def main(argv: list[str] | None = None) -> dict:
         fail(parser.prog, "the reports name different joints")
     ranks = rank_correlations(runs)
     print(table(runs, ranks))
-    out = {"runs": [{"source": run.source, "seed": run.seed, "joints": list(run.joints), "shortfall_points": run.shortfall,
+    out = {"runs": [{"source": run.source, "seed": run.seed, "joints": list(run.joints),
+                     "shortfall_points": run.shortfall,
                      "errors": {name: run.errors[name].tolist() for name in QUANTITIES}} for run in runs],
            "spearman": ranks}
     if args.out is not None:

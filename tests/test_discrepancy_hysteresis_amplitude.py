@@ -65,8 +65,8 @@ def test_the_shortfall_ranks_with_the_error_that_grows_with_it_and_against_the_o
             for k in range(4)]
     ranks = rank_correlations(runs)
     assert ranks["amplitude"][1] == pytest.approx(1.0) and ranks["stiffness"][1] == pytest.approx(1.0)
-    reversed_runs = [read_run(_write(tmp_path / f"rev{k}", _report(elbow_scale=1 + 0.1 * k, shrink=0.75 + 0.02 * k)))
-                     for k in range(4)]
+    reversed_runs = [read_run(_write(tmp_path / f"rev{k}",
+                                     _report(elbow_scale=1 + 0.1 * k, shrink=0.75 + 0.02 * k))) for k in range(4)]
     assert rank_correlations(reversed_runs)["amplitude"][1] == pytest.approx(-1.0)
     assert rank_correlations(runs[:2]) is None
     # an error that is the same on every run (the shoulder's, the cable's) has no rank to compare
