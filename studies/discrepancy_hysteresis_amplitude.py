@@ -93,14 +93,19 @@ def read_run(path: Path) -> HysteresisRun:
     bound = report.get("plant_floor_bound") if plant else report.get("floor_bound")
     if bound is None:
         raise UsageError(f"{report_path} holds no floor bound for the replay that scored it")
-    fitted, true = report["fitted_parameters"]["hysteresis"], report["true_parameters"]["hysteresis"]
-    final_base = report["starting_parameters"]["final"]["cable_stretch"]["stiffness"]
-    true_base = report["true_starting_parameters"]["cable_stretch"]["stiffness"]
-    pairs = {"amplitude": (hysteretic_amplitude(fitted), hysteretic_amplitude(true)),
-             "stiffness": (fitted["stiffness"], true["stiffness"]),
-             "cable_stiffness": (final_base, true_base)}
-    errors = {name: np.asarray(got, dtype=float) / np.asarray(want, dtype=float) - 1.0
-              for name, (got, want) in pairs.items()}
+    try:
+        fitted, true = report["fitted_parameters"]["hysteresis"], report["true_parameters"]["hysteresis"]
+        final_base = report["starting_parameters"]["final"]["cable_stretch"]["stiffness"]
+        true_base = report["true_starting_parameters"]["cable_stretch"]["stiffness"]
+        pairs = {"amplitude": (hysteretic_amplitude(fitted), hysteretic_amplitude(true)),
+                 "stiffness": (fitted["stiffness"], true["stiffness"]),
+                 "cable_stiffness": (final_base, true_base)}
+        with np.errstate(divide="ignore", invalid="ignore"):
+            errors = {name: np.asarray(got, dtype=float) / np.asarray(want, dtype=float) - 1.0
+                      for name, (got, want) in pairs.items()}
+    except (KeyError, TypeError, ValueError) as error:
+        raise UsageError(f"{report_path} is not a complete --hidden-effect report "
+                         f"({type(error).__name__}: {error})") from None
     for name, error in errors.items():
         if not np.all(np.isfinite(error)):
             raise UsageError(f"{report_path}: the {name.replace('_', ' ')} is not finite or the generator's is 0")

@@ -96,6 +96,10 @@ def _blind(report):
     (lambda r: {**r, "fitted_parameters": {}, "named_effects": []}, "the analysis named no hysteresis (named: nothing)"),
     (lambda r: {**r, "plant_floor_bound": None}, "holds no floor bound for the replay that scored it"),
     (lambda r: {k: v for k, v in r.items() if k != "shrink"}, "is not a discrepancy run's report (no 'shrink')"),
+    (lambda r: {k: v for k, v in r.items() if k != "starting_parameters"},
+     "is not a complete --hidden-effect report (KeyError: 'starting_parameters')"),
+    (lambda r: {**r, "true_starting_parameters": {"cable_stretch": {"stiffness": [1.0, 0.0, 1.0]}}},
+     "the cable stiffness is not finite or the generator's is 0"),
 ])
 def test_a_report_that_holds_no_named_generated_hysteresis_is_refused_in_one_line(tmp_path, capsys, edit, message):
     folder = _write(tmp_path / "run", edit(_report()))
