@@ -1,0 +1,109 @@
+"""The replay-bias study: the factor it finds on records the replay itself made, its refusals."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from studies.discrepancy_replay_bias import (FACTOR_TOLERANCE, base_weights, beside_blind_runs, generated, loop_height,
+                                             main, stiffness_factor)
+
+
+def _replayed_record(record, stiffness_scale, rounds=6):
+    """``record``'s signals with its joints and torques the quasi-static replay's own, of the generator's
+    parameters with the hysteresis stiffness times ``stiffness_scale``: the replay is run again on its
+    own joints (the links' derivatives held at the record's, so that only the poses change) until it
+    reproduces them."""
+    from simulation.discrepancy.replay import RavenModel
+
+    true = record.generator.effect("hysteresis")
+    model = RavenModel(record.generator.with_effect(true.replace(stiffness=true.stiffness * stiffness_scale)),
+                       np.zeros(3))
+    velocity, acceleration = record.signals.velocity, record.signals.acceleration
+    signals = record.signals.with_derivatives(velocity=velocity, acceleration=acceleration)
+    for _ in range(rounds):
+        state = model.replay(signals, record.robot)
+        signals = dataclasses.replace(signals, truth=state.joints, torque=state.torque, travel=None,
+                                      loaded_travel=None).with_derivatives(velocity=velocity, acceleration=acceleration)
+    state = model.replay(signals, record.robot)
+    assert np.max(np.abs(state.joints - signals.truth)) < 1e-6  # the replay reproduces its own record
+    return signals
+
+
+def test_on_records_the_replay_made_itself_the_factor_is_the_one_they_were_made_with():
+    record = generated(0, 30.0, None)
+    signals = _replayed_record(record, np.ones(3))
+    weights = base_weights(record.generator, signals, record.split, record.robot)
+    factors = [stiffness_factor(record.generator, signals, record.split, record.robot, weights, j) for j in range(3)]
+    np.testing.assert_allclose(factors, 1.0, atol=5 * FACTOR_TOLERANCE)
+    # one joint's loop made 30 % higher (or 20 % lower), every other value the generator's
+    for joint, scale in ((1, 1.3), (2, 0.8)):
+        signals = _replayed_record(record, np.where(np.arange(3) == joint, scale, 1.0))
+        weights = base_weights(record.generator, signals, record.split, record.robot)
+        factor = stiffness_factor(record.generator, signals, record.split, record.robot, weights, joint)
+        assert factor == pytest.approx(scale, abs=5 * FACTOR_TOLERANCE)
+
+
+def test_the_loop_height_is_the_candidates_stiffness_times_width_over_one_plus_shape():
+    stiffness, width, shape = np.array([12.0, 4.0, 200.0]), np.array([3e-3, 4e-3, 8e-5]), np.array([0.4, 0.9, 0.0])
+    np.testing.assert_allclose(loop_height(stiffness, 1 / width, shape / width), stiffness * width / (1 + shape))
+
+
+def _report(seed, elbow_scale, shrink):
+    true = {"stiffness": [12.0, 4.0, 200.0], "width": [3e-3, 4e-3, 8e-5], "shape": [0.4, 0.4, 0.4]}
+    fitted = {**true, "stiffness": [12.0, 4.0 * elbow_scale, 200.0]}
+    report = {"joints": ["shoulder", "elbow", "z_ins"], "shrink": shrink, "scored_by": "plant replay",
+              "plant_floor_bound": 0.87, "hidden_effect": ["hysteresis"], "named_effects": ["hysteresis"],
+              "fitted_parameters": {"hysteresis": fitted}, "true_parameters": {"hysteresis": true},
+              "starting_parameters": {"final": {"cable_stretch": {"stiffness": [38.0, 14.0, 2000.0]}}},
+              "true_starting_parameters": {"cable_stretch": {"stiffness": [38.0, 14.0, 2000.0]}}}
+    return report if seed is None else {**report, "seed": seed}
+
+
+def _write(folder, report):
+    folder.mkdir(parents=True)
+    (folder / "report.json").write_text(json.dumps(report))
+    return str(folder)
+
+
+def test_the_factor_is_put_beside_the_blind_run_of_its_seed_and_ranked_with_it(tmp_path):
+    from studies.discrepancy_replay_bias import blind_runs
+
+    runs = blind_runs([_write(tmp_path / f"run{s}", _report(s, 1.1 + 0.05 * s, 0.85 - 0.01 * s)) for s in range(4)])
+    beside = beside_blind_runs({0: 1.10, 1: 1.12, 2: 1.15, 3: 1.16, 9: 1.5}, runs)
+    assert [row["seed"] for row in beside["rows"]] == [0, 1, 2, 3]  # seed 9 has no report
+    assert beside["rows"][2]["blind_loop_error"] == pytest.approx(0.2)
+    assert beside["rows"][2]["shortfall_points"] == pytest.approx(4.0)
+    assert beside["spearman"] == {"blind_loop_error": pytest.approx(1.0), "shortfall_points": pytest.approx(1.0)}
+    assert beside_blind_runs({0: 1.1, 1: 1.2}, runs)["spearman"] is None
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--response-times", "default,0,0"], "a response time is given twice in 'default,0,0'"),
+    (["--response-times", "2"], "'2' is not 'default' or a response time: must be between 0 and 1 s, got 2"),
+    (["--seeds", "0"], "--seeds"),
+    (["--fit-iterations", "0"], "--fit-iterations"),
+])
+def test_bad_options_are_refused_in_one_line(argv, message, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    error = capsys.readouterr().err.strip().splitlines()
+    assert exit_info.value.code == 2 and len(error) <= 2 and message in error[-1], error
+
+
+def test_reports_that_do_not_fit_the_runs_option_are_refused_in_one_line(tmp_path, capsys):
+    cases = [
+        ([_write(tmp_path / "a", _report(None, 1.2, 0.8))], "does not say its seed"),
+        ([_write(tmp_path / "b", _report(3, 1.2, 0.8)), _write(tmp_path / "c", _report(3, 1.1, 0.8))],
+         "two reports of seed 3"),
+        ([_write(tmp_path / "d", _report(4, 1.2, 0.8)), "--seed", "4"], "--runs measures the seeds of its reports"),
+        ([str(tmp_path / "missing")], "missing"),
+    ]
+    for runs, message in cases:
+        with pytest.raises(SystemExit) as exit_info:
+            main(["--runs", *runs])
+        error = capsys.readouterr().err.strip().splitlines()
+        assert exit_info.value.code == 2 and message in error[-1], error
