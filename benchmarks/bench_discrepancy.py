@@ -117,7 +117,7 @@ def main() -> None:
 
         def series(k):
             for args_ in inputs:
-                cable_link_series(*args_)
+                cable_link_series(*args_[:-1])  # the memo's last input, the lag, is only its key
 
         point_ms = cpu_ms(new_point, args.evaluations)
         gradient_ms = cpu_ms(gradient, args.evaluations)

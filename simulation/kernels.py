@@ -44,13 +44,18 @@ def _identification() -> None:
 
 
 def _replay() -> None:
-    from simulation.discrepancy.replay import cable_link_series, play_series
+    from simulation.discrepancy.replay import _constant, _ones, _SeriesMemo, play_series
 
     n = 100
     x = np.linspace(0.0, 1.0, n)
     restart = np.zeros(n, dtype=np.bool_)
     restart[0] = True
-    cable_link_series(x, x, np.full(n, 0.1), np.ones(n), 40.0, 0.5, 1.0, 0.7, 0.3, x, restart, 0.01)
+    # through the replay's memo, with its read-only friction bounds and lag fractions: numba compiles
+    # a kernel once per layout and writability of its arrays; the second call compares what it remembers
+    memo = _SeriesMemo()
+    for _ in range(2):
+        memo.series(x, x, _constant(n, 0.1), np.ones(n), 40.0, 0.5, 1.0, 0.7, 0.3, x, restart, 0.01, _ones((n,)),
+                    False, 0.0)
     play_series(x, 0.01, restart)
 
 

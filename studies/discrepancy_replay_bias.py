@@ -16,11 +16,14 @@ the loop's height (``stiffness / (beta + gamma)``). It reports, per joint, the f
 part's smallest weighted sum of squares (joints and motor torques, the offsets fitted on the fit
 part, each channel weighed by the residual the generator's parameters leave without the hysteresis,
 as the workflow weighs by its starting model's). A replay that followed the plant exactly would put
-it at 1. Two replays:
+it at 1. Three replays:
 
 - **the workflow's**: the replay as the analysis runs it;
 - **without the links' inertial loads**: the links' accelerations set to zero, which removes what the
-  causal acceleration estimate brings to the loads.
+  causal acceleration estimate brings to the loads;
+- **following the generator's lag**: the workflow's, but its Bouc-Wen state follows the stretch
+  over the generator's response time, as the simulator's does (``RavenModel.follows_hysteresis_lag``;
+  only where the generator's hysteresis lags).
 
 and two generators (``--response-times``): the hysteresis at its default response time, and one that
 follows the stretch of every plant sub-step (0), as the replay's does.
@@ -59,7 +62,7 @@ FACTOR_RANGE = (0.5, 2.0)
 FACTOR_TOLERANCE = 1e-3
 """Absolute tolerance of the searched factor."""
 
-REPLAYS = ("the workflow's replay", "without the links' inertial loads")
+REPLAYS = ("the workflow's replay", "without the links' inertial loads", "following the generator's lag")
 """The replays of :func:`stiffness_factors` (see the module's text)."""
 
 JOINTS = ("shoulder", "elbow", "z_ins")
@@ -117,16 +120,18 @@ def base_weights(generator, signals, split, robot):
     return ChannelWeights.from_residual(fit.joints, fit.torque, 1e-3 / report_scale(signals.units))
 
 
-def stiffness_factor(generator, signals, split, robot, weights, joint: int) -> float:
+def stiffness_factor(generator, signals, split, robot, weights, joint: int, follows_lag: bool = False) -> float:
     """The factor of joint ``joint``'s hysteresis stiffness (the generator's otherwise) at the fit
-    part's smallest weighted sum of squares of the quasi-static replay, within :data:`FACTOR_RANGE`."""
+    part's smallest weighted sum of squares of the quasi-static replay, within :data:`FACTOR_RANGE`;
+    with ``follows_lag`` the replay's Bouc-Wen state follows the stretch over the generator's
+    response time (``RavenModel.follows_hysteresis_lag``)."""
     from scipy.optimize import minimize_scalar
 
     from simulation.discrepancy.fitting import residual
     from simulation.discrepancy.replay import RavenModel
 
     true = generator.effect("hysteresis")
-    model = RavenModel(generator, np.zeros(3))
+    model = RavenModel(generator, np.zeros(3), follows_hysteresis_lag=follows_lag)
 
     def chi_square(factor):
         stiffness = np.array(true.stiffness, dtype=float)
@@ -139,11 +144,15 @@ def stiffness_factor(generator, signals, split, robot, weights, joint: int) -> f
 
 
 def stiffness_factors(record: Record) -> dict[str, list[float]]:
-    """:func:`stiffness_factor` of every joint, for each replay of :data:`REPLAYS`."""
+    """:func:`stiffness_factor` of every joint, for each replay of :data:`REPLAYS` (the last only
+    where the generator's hysteresis lags: otherwise it is the first)."""
     signals = record.signals
-    replays = dict(zip(REPLAYS, (signals, signals.with_derivatives(acceleration=np.zeros_like(signals.truth)))))
-    return {name: [stiffness_factor(record.generator, s, record.split, record.robot, record.weights, j)
-                   for j in range(len(JOINTS))] for name, s in replays.items()}
+    replays = {REPLAYS[0]: (signals, False),
+               REPLAYS[1]: (signals.with_derivatives(acceleration=np.zeros_like(signals.truth)), False)}
+    if np.any(record.generator.effect("hysteresis").response_time > 0):
+        replays[REPLAYS[2]] = (signals, True)
+    return {name: [stiffness_factor(record.generator, s, record.split, record.robot, record.weights, j, lagged)
+                   for j in range(len(JOINTS))] for name, (s, lagged) in replays.items()}
 
 
 def loop_height(stiffness, beta, gamma) -> np.ndarray:

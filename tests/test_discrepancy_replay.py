@@ -224,6 +224,43 @@ def _bouc_wen_sub_steps(z, change, beta, gamma):
     return z
 
 
+def test_a_replay_told_to_follow_the_hysteresis_lag_drives_the_state_with_the_lagged_stretch(record):
+    # a diagnostic's replay (studies/discrepancy_replay_bias.py): the Bouc-Wen state follows the
+    # stretch through a first-order lag of the hysteresis's response time, as in the simulator
+    from simulation.model.laws import cable_tension_curve
+
+    signals, model, robot = record
+    loops = Hysteresis(stiffness=np.array([40.0, 30.0, 400.0]), beta=np.array([400.0, 400.0, 4000.0]),
+                       gamma=np.array([100.0, 100.0, 1000.0]), response_time=np.array([0.05, 0.1, 0.02]))
+    lagged = RavenModel(model.params.with_effect(loops), np.zeros(3), follows_hysteresis_lag=True).replay(signals,
+                                                                                                        robot)
+    plain = RavenModel(model.params.with_effect(loops), np.zeros(3)).replay(signals, robot)
+    assert np.max(np.abs(lagged.joints - plain.joints)) > 1e-6  # the lag changes the replay
+    # without a lag to follow, the flag changes nothing, to the last bit
+    instant = loops.replace(response_time=np.zeros(3))
+    np.testing.assert_array_equal(
+        RavenModel(model.params.with_effect(instant), np.zeros(3), follows_hysteresis_lag=True).replay(signals,
+                                                                                                     robot).joints,
+        RavenModel(model.params.with_effect(instant), np.zeros(3)).replay(signals, robot).joints)
+    law = model.params.effect("cable_stretch")
+    for j in range(3):
+        # the state integrated again, step by step, from the replay's own stretch through the lag; a
+        # restart begins at the stretch of the measured link position, from which the link may slip
+        stretch = lagged.stretch[:, j]
+        z = np.zeros_like(stretch)
+        state = followed = 0.0
+        for k in range(len(stretch)):
+            if signals.restarts[k]:
+                state, followed = 0.0, stretch[k] + lagged.joints[k, j] - signals.truth[k, j]
+            fraction = 1.0 if k == 0 else 1.0 - np.exp(-(signals.time[k] - signals.time[k - 1]) / loops.response_time[j])
+            state = _bouc_wen_sub_steps(state, fraction * (stretch[k] - followed), loops.beta[j], loops.gamma[j])
+            followed += fraction * (stretch[k] - followed)
+            z[k] = state
+        hysteretic = lagged.tension[:, j] - cable_tension_curve(stretch, law.stiffness[j], law.hardening[j])
+        np.testing.assert_allclose(hysteretic, loops.stiffness[j] * z, rtol=1e-7,
+                                   atol=1e-9 * loops.stiffness[j] / (loops.beta[j] + loops.gamma[j]))
+
+
 @pytest.mark.parametrize("widths", [0.01, 0.3, 2.0, 40.0, 3000.0])
 @pytest.mark.parametrize("start", [-0.9, -0.2, 0.0, 0.5, 0.99])
 @pytest.mark.parametrize("direction", [1.0, -1.0])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from simulation import kernels
@@ -17,6 +18,33 @@ def test_a_group_compiles_and_its_done_file_is_written(tmp_path):
 
     # the group's kernel is compiled in this process now, for the signature real work asks for
     assert play_series.signatures
+
+
+def test_the_replay_group_compiles_the_cable_series_for_the_array_types_a_replay_passes(monkeypatch):
+    # numba compiles a kernel anew for arrays of another layout or writability: a warm-up that
+    # passes other types leaves every worker to compile the series again at its first replay
+    import numba
+
+    from simulation.discrepancy import MeasuredSignals
+    from simulation.discrepancy import replay as replay_module
+    from simulation.discrepancy.replay import RavenModel
+    from studies.common.discrepancy_runs import generate_measured, generator_parameters
+
+    kernel = replay_module.cable_link_series
+    seen = []
+
+    def recording(*args):
+        seen.append(tuple(numba.typeof(a) for a in args))
+        return kernel(*args)
+
+    monkeypatch.setattr(replay_module, "cable_link_series", recording)
+    kernels.compile_groups(["replay"])
+    warm_up = set(seen)
+    seen.clear()
+    dataset, _ = generate_measured((), seed=5, duration=5.0)
+    monkeypatch.setattr(replay_module, "_SERIES", replay_module._SeriesMemo())
+    RavenModel(generator_parameters(()), np.zeros(3)).replay(MeasuredSignals.from_dataset(dataset))
+    assert seen and set(seen) <= warm_up, (set(seen) - warm_up)
 
 
 def test_the_done_file_is_written_when_the_compile_fails(tmp_path, monkeypatch):

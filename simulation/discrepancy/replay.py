@@ -11,8 +11,8 @@ inertia), the cable law turns the loads into stretch, and the prediction is
 with ``A`` the cable coupling (each motor's column over ``1 + ratio_error`` with a transmission
 error, as in the simulator's engine), evaluated sample by sample with the model layer's laws
 (:mod:`simulation.model.laws`: cable tension and its inverse, tangent stiffness, gravity load,
-play, Bouc-Wen hysteresis, whose state follows the logged stretch sample by sample: the replay has
-no ``Hysteresis.response_time``). The replay keeps no state of the links' vibration on their cables: the
+play, Bouc-Wen hysteresis, whose state follows the logged stretch sample by sample: the workflow's
+replay has no ``Hysteresis.response_time``). The replay keeps no state of the links' vibration on their cables: the
 links' inertia enters through their measured accelerations. That vibration is not far above the
 30 Hz log (at zero tension, about 3 Hz for the shoulder and the elbow and 15 Hz for the insertion
 axis, from the kinematics' mass matrix at one pose and the default cable stiffness), which is one
@@ -113,15 +113,18 @@ they run one by one (the two agree to rounding)."""
 
 
 @njit(cache=True)
-def _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, softening, k_h, beta, gamma):
+def _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, softening, k_h, beta, gamma,
+                      fraction):
     """Stretch whose elastic plus hysteretic tension equals ``target``.
 
-    The tension grows monotonically with the stretch, so Newton steps kept inside a shrinking
-    bracket (bisection when a step leaves it) converge in a few iterations.
+    The Bouc-Wen state moves with ``fraction`` of the stretch's change from ``previous`` (1: the
+    stretch itself; less: a stretch followed with a lag). The tension grows monotonically with the
+    stretch, so Newton steps kept inside a shrinking bracket (bisection when a step leaves it)
+    converge in a few iterations.
     """
     x = 0.5 * (lower + upper)
     for _ in range(50):
-        z_x = _bouc_wen_after(z, x - previous, beta, gamma)
+        z_x = _bouc_wen_after(z, fraction * (x - previous), beta, gamma)
         value = stiffness_tension(x, stiffness, hardening) / softening + k_h * z_x - target
         if value > 0.0:
             upper = x
@@ -129,7 +132,7 @@ def _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, s
             lower = x
         sign = 1.0 if x >= previous else -1.0
         slope = (cable_stiffness(x, stiffness, hardening) / softening
-                 + k_h * max(bouc_wen_slope(z_x, sign, beta, gamma), 0.0))
+                 + k_h * fraction * max(bouc_wen_slope(z_x, sign, beta, gamma), 0.0))
         step = x - value / slope
         if not (lower < step < upper):
             step = 0.5 * (lower + upper)
@@ -141,7 +144,7 @@ def _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, s
 
 @njit(cache=True)
 def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma,
-                      start, restart, capstan=0.0):
+                      start, restart, capstan, follow, lagged):
     """Link position of one joint hanging on its cable, sample by sample.
 
     The link stays put while the cable's tension (elastic ``k x0 sinh(s/x0)`` divided by the
@@ -153,7 +156,10 @@ def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteres
     and may be stiffer than the cable itself. Friction and hysteresis thus interact as they do in
     the simulator. ``start`` (N,) are the measured link positions the series (re)starts from at
     the samples where ``restart`` holds (the first, and the first after each re-homing, where the
-    encoders were re-registered). Returns the link positions and the hysteresis state.
+    encoders were re-registered). The Bouc-Wen state follows the stretch sample by sample, or, with
+    ``lagged``, a first-order lag of it that moves ``follow[k]`` (N,) of the way to the stretch at
+    sample ``k`` (``1 - exp(-dt / response_time)``; a diagnostic's, never the workflow's). Returns
+    the link positions and the hysteresis state.
     """
     n = base.shape[0]
     link = np.empty(n)
@@ -167,7 +173,7 @@ def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteres
             z = 0.0
             previous = base[k] - state
         stretch = base[k] - state
-        z_stick = _bouc_wen_after(z, stretch - previous, beta, gamma)
+        z_stick = _bouc_wen_after(z, follow[k] * (stretch - previous), beta, gamma)
         tension = stiffness_tension(stretch, stiffness, hardening) / softening[k] + hysteresis_stiffness * z_stick
         high = load[k] + dry[k]
         low = load[k] - dry[k]
@@ -185,11 +191,12 @@ def cable_link_series(base, load, dry, softening, stiffness, hardening, hysteres
                 lower = stretch_from_tension((target - reach) * softening[k], stiffness, hardening) - 1e-9
                 upper = stretch_from_tension((target + reach) * softening[k], stiffness, hardening) + 1e-9
                 stretch = _balanced_stretch(target, previous, z, lower, upper, stiffness, hardening, softening[k],
-                                            hysteresis_stiffness, beta, gamma)
-            z_stick = _bouc_wen_after(z, stretch - previous, beta, gamma)
+                                            hysteresis_stiffness, beta, gamma, follow[k])
+            z_stick = _bouc_wen_after(z, follow[k] * (stretch - previous), beta, gamma)
             state = base[k] - stretch
         z = z_stick
-        previous = stretch
+        # the stretch the state follows: the stretch itself, or its lag
+        previous = previous + follow[k] * (stretch - previous) if lagged else stretch
         link[k] = state
         zs[k] = z
     return link, zs
@@ -215,18 +222,19 @@ class _SeriesMemo:
         self._results: OrderedDict[tuple, list] = OrderedDict()
 
     def series(self, base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta, gamma,
-               start, restart, capstan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               start, restart, capstan, follow, lagged, lag) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The link positions, the hysteresis state and the elastic tension ``k x0 sinh(s / x0)`` of
-        the stretch ``s = base - link`` (before the cable's softening), each (N,)."""
+        the stretch ``s = base - link`` (before the cable's softening), each (N,). ``follow`` derives
+        from the record's times and the hysteresis's ``lag`` (s), which the memo's key holds instead."""
         arrays = (base, load, dry, softening, start, restart)
-        scalars = (stiffness, hardening, hysteresis_stiffness, beta, gamma, capstan)
+        scalars = (stiffness, hardening, hysteresis_stiffness, beta, gamma, capstan, lag)
         key = (base.shape[0], _series_fingerprint(*arrays)) + tuple(float(v) for v in scalars)
         for remembered, result in self._results.get(key, ()):
             if _same_series_inputs(*arrays, *remembered):
                 self._results.move_to_end(key)
                 return result
         link, z = cable_link_series(base, load, dry, softening, stiffness, hardening, hysteresis_stiffness, beta,
-                                    gamma, start, restart, capstan)
+                                    gamma, start, restart, capstan, follow, lagged)
         # the elastic tension of this joint's stretch, element by element as the whole table's
         result = (link, z, cable_tension_curve(base - link, stiffness, hardening))
         for array in result:
@@ -297,6 +305,15 @@ def _constant(n: int, value: float) -> np.ndarray:
     return array
 
 
+def _lag_fractions(time: np.ndarray, response_time: float) -> np.ndarray:
+    """(N,) fraction of the way a first-order lag of ``response_time`` s moves towards its input
+    between each sample and the one before, ``1 - exp(-dt / response_time)`` (1 at the first)."""
+    fractions = np.ones(time.shape[0])
+    fractions[1:] = -np.expm1(-np.diff(time) / response_time)
+    fractions.setflags(write=False)
+    return fractions
+
+
 @dataclass(frozen=True, eq=False)
 class ReplayState:
     """A model's prediction along measured signals, with the internals behind it.
@@ -327,7 +344,11 @@ class RavenModel:
     constant per homing). ``payload_kg`` is a payload at the tool tip that the log does not
     declare (kg), added to the one it does. ``standard_errors`` maps the names of the parameters an
     identification fitted to ``params`` (e.g. ``"cable_stretch.stiffness[shoulder]"``) to their
-    standard errors (SI); a model whose effects or loads change no longer has them (None).
+    standard errors (SI); a model whose effects or loads change no longer has them (None). With
+    ``follows_hysteresis_lag`` the Bouc-Wen state of a hysteresis follows the stretch over its
+    ``Hysteresis.response_time`` (a first-order lag, as in the simulator) instead of sample by
+    sample: for diagnostics that give the replay the generator's lag
+    (``studies/discrepancy_replay_bias.py``); no analysis sets it.
     """
 
     params: RavenParameters
@@ -336,6 +357,7 @@ class RavenModel:
     homing_offset_name: str = "homing_offset"
     payload_kg: float = 0.0
     standard_errors: dict | None = None
+    follows_hysteresis_lag: bool = False
 
     @property
     def enabled_effects(self) -> tuple[str, ...]:
@@ -431,11 +453,14 @@ class RavenModel:
             link = np.empty_like(u)
             z = np.empty_like(u)
             tension = np.empty(u.shape)
+            lags = (hyst.response_time if hyst.enabled and self.follows_hysteresis_lag else np.zeros(3))
             columns = [np.ascontiguousarray(a.T) for a in (base, load, softening, first)]
             for i in range(3):
+                follow = _ones((n,)) if lags[i] == 0.0 else _lag_fractions(signals.time, float(lags[i]))
                 link[:, i], z[:, i], tension[:, i] = _SERIES.series(
                     columns[0][i], columns[1][i], _constant(n, float(force[i])), columns[2][i], law.stiffness[i],
-                    law.hardening[i], k_h[i], beta[i], gamma[i], columns[3][i], signals.restarts, capstan[i])
+                    law.hardening[i], k_h[i], beta[i], gamma[i], columns[3][i], signals.restarts, capstan[i],
+                    follow, bool(lags[i] > 0.0), float(lags[i]))
             stretch = base - link
             if drifts:
                 tension = tension / softening
