@@ -31,10 +31,12 @@ follows the stretch of every plant sub-step (0), as the replay's does.
 With ``--fit``, the library's hysteresis candidate is also fitted (as the workflow's candidate fits
 run, from its typical values, at most ``--fit-iterations`` IPOPT iterations) on the generator's
 base, its parameters without the hysteresis: the loop height per joint over the generator's and the
-fitted shape. With ``--runs``, the reports of ``--hidden-effect hysteresis`` runs (as
-``studies/discrepancy_hysteresis_amplitude.py`` reads them): the seeds measured are theirs, and beside the replay's elbow factor of each seed are its blind fit's elbow loop-height error
-and its shortfall from the bound, with the Spearman rank correlation of the factor with each over
-the seeds. Run::
+fitted shape; where the generator's hysteresis lags, fitted also with the replay following that lag.
+With ``--runs``, the reports of ``--hidden-effect hysteresis`` runs (as
+``studies/discrepancy_hysteresis_amplitude.py`` reads them): the seeds measured are theirs, and
+beside the replay's elbow factor of each seed are its blind fit's elbow loop-height error and its
+shortfall from the bound, with the Spearman rank correlation of the factor with each over the
+seeds. Run::
 
     python studies/discrepancy_replay_bias.py --seed 124 --seeds 5 --out bias.json
     python studies/discrepancy_replay_bias.py --fit --runs results/hysteresis-124 results/hysteresis-125 ...
@@ -160,18 +162,31 @@ def loop_height(stiffness, beta, gamma) -> np.ndarray:
     return np.asarray(stiffness, dtype=float) / (np.asarray(beta, dtype=float) + np.asarray(gamma, dtype=float))
 
 
-def candidate_on_generator_base(record: Record, max_iter: int) -> dict:
+def candidate_on_generator_base(record: Record, max_iter: int, follows_lag: bool = False) -> dict:
     """The library's hysteresis candidate fitted with the quasi-static replay on the fit part, on the
     generator's parameters without the hysteresis: its values, its loop height over the generator's
     minus 1 per joint, and the fitted values at an end of their search range (as the workflow's
-    reports mark them)."""
+    reports mark them). With ``follows_lag`` the replay's Bouc-Wen state follows the stretch over the
+    generator's response time (the candidate's hysteresis is given the generator's, in place of the
+    candidate's own round lag, which only a plant replay reads)."""
+    from dataclasses import replace
+
     from simulation.discrepancy.fitting import fit_candidate
     from simulation.discrepancy.replay import RavenModel
     from simulation.discrepancy.workflow import values_at_bounds
     from studies.common.discrepancy_runs import raven_library
 
     (candidate,) = raven_library(record.signals, ("hysteresis",))
-    base = _with_fit_offsets(RavenModel(record.generator.without("hysteresis"), np.zeros(3)),
+    if follows_lag:
+        lag, own = record.generator.effect("hysteresis").response_time, candidate.build
+
+        def with_generators_lag(model, values):
+            built = own(model, values)
+            return built.with_effect(built.params.effect("hysteresis").replace(response_time=lag))
+
+        candidate = replace(candidate, build=with_generators_lag)
+    base = _with_fit_offsets(RavenModel(record.generator.without("hysteresis"), np.zeros(3),
+                                        follows_hysteresis_lag=follows_lag),
                              record.signals, record.split, record.robot)
     theta, _, _ = fit_candidate(candidate, base, record.signals, record.weights, record.robot,
                                 mask=record.split.fit, starts=1, max_iter=max_iter)
@@ -292,13 +307,16 @@ def main(argv: list[str] | None = None) -> dict:
             for name, values in figures["factors"].items():
                 print(f"seed {seed}, {_label(lag)}, {name}: " + ", ".join(map(_factor, values)), flush=True)
             if args.fit:
-                figures["fit"] = candidate_on_generator_base(record, args.fit_iterations)
-                fit = figures["fit"]
-                print(f"seed {seed}, {_label(lag)}, the candidate fitted on the generator's base: loop height "
-                      + ", ".join(f"{100 * e:+.1f} %" for e in fit["loop_error"]) + "; shape "
-                      + ", ".join(f"{v:.2f}" for v in fit["values"]["shape"])
-                      + (f" (at its range's end: {', '.join(fit['at_range_end'])})" if fit["at_range_end"] else ""),
-                      flush=True)
+                fits = {"fit": False}
+                if REPLAYS[2] in figures["factors"]:
+                    fits["fit following the generator's lag"] = True
+                for key, follows_lag in fits.items():
+                    fit = figures[key] = candidate_on_generator_base(record, args.fit_iterations, follows_lag)
+                    ends = f" (at its range's end: {', '.join(fit['at_range_end'])})" if fit["at_range_end"] else ""
+                    print(f"seed {seed}, {_label(lag)}, the candidate fitted on the generator's base"
+                          + (", the replay following the generator's lag" if follows_lag else "")
+                          + ": loop height " + ", ".join(f"{100 * e:+.1f} %" for e in fit["loop_error"])
+                          + "; shape " + ", ".join(f"{v:.2f}" for v in fit["values"]["shape"]) + ends, flush=True)
             out["runs"][seed][_label(lag)] = figures
     if runs:
         first = _label(lags[0])
