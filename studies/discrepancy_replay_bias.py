@@ -201,10 +201,13 @@ def candidate_on_generator_base(record: Record, max_iter: int, follows_lag: bool
             "at_range_end": at_end}
 
 
-def blind_runs(paths) -> dict[int, object]:
+def blind_runs(paths, duration: float) -> dict[int, object]:
     """The ``--hidden-effect hysteresis`` reports at ``paths`` by seed (read as
-    ``studies/discrepancy_hysteresis_amplitude.py`` reads them); a report without a seed, or two of
-    one seed, is refused."""
+    ``studies/discrepancy_hysteresis_amplitude.py`` reads them); a report without a seed, two of one
+    seed, or one of a record whose length is not within 5 % of ``duration`` s (the records this study
+    generates) is refused."""
+    import json
+
     from studies.discrepancy_hysteresis_amplitude import read_run
 
     runs = {}
@@ -212,6 +215,10 @@ def blind_runs(paths) -> dict[int, object]:
         run = read_run(path)
         if run.seed is None:
             raise UsageError(f"{run.source} does not say its seed")
+        length = json.loads(Path(run.source).read_text()).get("record_s")
+        if not isinstance(length, (int, float)) or abs(length - duration) > 0.05 * duration:
+            raise UsageError(f"{run.source} is of a {length} s record, not of the {duration:g} s this study "
+                             "generates (--duration)")
         if run.seed in runs:
             raise UsageError(f"two reports of seed {run.seed}: {runs[run.seed].source} and {run.source}")
         runs[run.seed] = run
@@ -268,7 +275,8 @@ def _label(lag: float | None) -> str:
 
 def main(argv: list[str] | None = None) -> dict:
     parser = script_parser(STUDY, __doc__)
-    parser.add_argument("--seed", type=non_negative_int, default=None, help=f"first seed (>= 0; {DEFAULT_SEED} without it)")
+    parser.add_argument("--seed", type=non_negative_int, default=None,
+                        help=f"first seed (>= 0; {DEFAULT_SEED} without it)")
     parser.add_argument("--seeds", type=positive_int, default=None, help="number of seeds from --seed (1 without it)")
     parser.add_argument("--duration", type=record_length, default=DEFAULT_RECORD_S,
                         help="record length (s, at most six hours)")
@@ -284,7 +292,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
     args = parser.parse_args(argv)
     try:
-        runs = blind_runs(args.runs)
+        runs = blind_runs(args.runs, args.duration)
     except UsageError as error:
         fail(parser.prog, str(error))
     if runs and (args.seed is not None or args.seeds is not None):
@@ -324,8 +332,8 @@ def main(argv: list[str] | None = None) -> dict:
         out["beside_blind_runs"] = beside_blind_runs(factors, runs)
         print(f"elbow, {first}, {REPLAYS[0]}, beside the blind runs of the same seeds:")
         for row in out["beside_blind_runs"]["rows"]:
-            print(f"  seed {row['seed']}: factor {row['factor']:.3f}, blind loop height {100 * row['blind_loop_error']:+.1f} %, "
-                  f"{row['shortfall_points']:.1f} points under the bound")
+            print(f"  seed {row['seed']}: factor {row['factor']:.3f}, blind loop height "
+                  f"{100 * row['blind_loop_error']:+.1f} %, {row['shortfall_points']:.1f} points under the bound")
         ranks = out["beside_blind_runs"]["spearman"]
         if ranks is not None:
             print("  Spearman of the factor with the blind loop-height error "

@@ -252,7 +252,8 @@ def test_a_replay_told_to_follow_the_hysteresis_lag_drives_the_state_with_the_la
         for k in range(len(stretch)):
             if signals.restarts[k]:
                 state, followed = 0.0, stretch[k] + lagged.joints[k, j] - signals.truth[k, j]
-            fraction = 1.0 if k == 0 else 1.0 - np.exp(-(signals.time[k] - signals.time[k - 1]) / loops.response_time[j])
+            step = 0.0 if k == 0 else signals.time[k] - signals.time[k - 1]
+            fraction = 1.0 if k == 0 else 1.0 - np.exp(-step / loops.response_time[j])
             state = _bouc_wen_sub_steps(state, fraction * (stretch[k] - followed), loops.beta[j], loops.gamma[j])
             followed += fraction * (stretch[k] - followed)
             z[k] = state

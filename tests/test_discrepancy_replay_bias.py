@@ -59,7 +59,8 @@ def _report(seed, elbow_scale, shrink):
               "plant_floor_bound": 0.87, "hidden_effect": ["hysteresis"], "named_effects": ["hysteresis"],
               "fitted_parameters": {"hysteresis": fitted}, "true_parameters": {"hysteresis": true},
               "starting_parameters": {"final": {"cable_stretch": {"stiffness": [38.0, 14.0, 2000.0]}}},
-              "true_starting_parameters": {"cable_stretch": {"stiffness": [38.0, 14.0, 2000.0]}}}
+              "true_starting_parameters": {"cable_stretch": {"stiffness": [38.0, 14.0, 2000.0]}},
+              "record_s": 1201.8}
     return report if seed is None else {**report, "seed": seed}
 
 
@@ -72,7 +73,8 @@ def _write(folder, report):
 def test_the_factor_is_put_beside_the_blind_run_of_its_seed_and_ranked_with_it(tmp_path):
     from studies.discrepancy_replay_bias import blind_runs
 
-    runs = blind_runs([_write(tmp_path / f"run{s}", _report(s, 1.1 + 0.05 * s, 0.85 - 0.01 * s)) for s in range(4)])
+    runs = blind_runs([_write(tmp_path / f"run{s}", _report(s, 1.1 + 0.05 * s, 0.85 - 0.01 * s)) for s in range(4)],
+                      1200.0)
     beside = beside_blind_runs({0: 1.10, 1: 1.12, 2: 1.15, 3: 1.16, 9: 1.5}, runs)
     assert [row["seed"] for row in beside["rows"]] == [0, 1, 2, 3]  # seed 9 has no report
     assert beside["rows"][2]["blind_loop_error"] == pytest.approx(0.2)
@@ -100,6 +102,8 @@ def test_reports_that_do_not_fit_the_runs_option_are_refused_in_one_line(tmp_pat
         ([_write(tmp_path / "b", _report(3, 1.2, 0.8)), _write(tmp_path / "c", _report(3, 1.1, 0.8))],
          "two reports of seed 3"),
         ([_write(tmp_path / "d", _report(4, 1.2, 0.8)), "--seed", "4"], "--runs measures the seeds of its reports"),
+        ([_write(tmp_path / "e", {**_report(5, 1.2, 0.8), "record_s": 240.4})],
+         "is of a 240.4 s record, not of the 1200 s this study generates (--duration)"),
         ([str(tmp_path / "missing")], "missing"),
     ]
     for runs, message in cases:
