@@ -31,7 +31,9 @@ follows the stretch of every plant sub-step (0), as the replay's does.
 With ``--fit``, the library's hysteresis candidate is also fitted (as the workflow's candidate fits
 run, from its typical values, at most ``--fit-iterations`` IPOPT iterations) on the generator's
 base, its parameters without the hysteresis: the loop height per joint over the generator's and the
-fitted shape; where the generator's hysteresis lags, fitted also with the replay following that lag.
+fitted shape; where the generator's hysteresis lags, fitted also with the replay following that lag,
+and with ``--fit-lag`` also with the replay following a lag per joint fitted with the candidate (0 to
+0.5 s, from a round 0.1 s): whether the quasi-static replay can find the lag itself.
 With ``--runs``, the reports of ``--hidden-effect hysteresis`` runs (as
 ``studies/discrepancy_hysteresis_amplitude.py`` reads them): the seeds measured are theirs, and
 beside the replay's elbow factor of each seed are its blind fit's elbow loop-height error and its
@@ -68,6 +70,9 @@ REPLAYS = ("the workflow's replay", "without the links' inertial loads", "follow
 """The replays of :func:`stiffness_factors` (see the module's text)."""
 
 JOINTS = ("shoulder", "elbow", "z_ins")
+
+FIT_LAGS = ("none", "generator's", "fitted")
+"""What the replay's Bouc-Wen state follows in :func:`candidate_on_generator_base`."""
 
 DEFAULT_SEED = 124
 """The seed measured without ``--seed`` or ``--runs``: the one whose blind fit overshoots most."""
@@ -162,29 +167,39 @@ def loop_height(stiffness, beta, gamma) -> np.ndarray:
     return np.asarray(stiffness, dtype=float) / (np.asarray(beta, dtype=float) + np.asarray(gamma, dtype=float))
 
 
-def candidate_on_generator_base(record: Record, max_iter: int, follows_lag: bool = False) -> dict:
+def candidate_on_generator_base(record: Record, max_iter: int, lag: str = "none") -> dict:
     """The library's hysteresis candidate fitted with the quasi-static replay on the fit part, on the
     generator's parameters without the hysteresis: its values, its loop height over the generator's
     minus 1 per joint, and the fitted values at an end of their search range (as the workflow's
-    reports mark them). With ``follows_lag`` the replay's Bouc-Wen state follows the stretch over the
-    generator's response time (the candidate's hysteresis is given the generator's, in place of the
-    candidate's own round lag, which only a plant replay reads)."""
+    reports mark them). ``lag`` (one of :data:`FIT_LAGS`) is what the replay's Bouc-Wen state
+    follows: ``"none"`` the stretch itself (the workflow's replay), ``"generator's"`` the stretch
+    over the generator's response time, ``"fitted"`` the stretch over a response time per joint
+    fitted with the candidate (from a round 0.1 s, within 0 to 0.5 s). The candidate's own round
+    lag, which only a plant replay reads, is replaced in the last two."""
     from dataclasses import replace
 
+    from simulation.discrepancy.candidates import ParameterBlock
     from simulation.discrepancy.fitting import fit_candidate
     from simulation.discrepancy.replay import RavenModel
     from simulation.discrepancy.workflow import values_at_bounds
     from studies.common.discrepancy_runs import raven_library
 
+    if lag not in FIT_LAGS:
+        raise ValueError(f"lag must be one of {', '.join(FIT_LAGS)}, got {lag!r}")
     (candidate,) = raven_library(record.signals, ("hysteresis",))
+    follows_lag = lag != "none"
     if follows_lag:
-        lag, own = record.generator.effect("hysteresis").response_time, candidate.build
+        own = candidate.build
 
-        def with_generators_lag(model, values):
+        def with_lag(model, values):
             built = own(model, values)
-            return built.with_effect(built.params.effect("hysteresis").replace(response_time=lag))
+            response_time = (values["response_time"] if lag == "fitted"
+                             else record.generator.effect("hysteresis").response_time)
+            return built.with_effect(built.params.effect("hysteresis").replace(response_time=response_time))
 
-        candidate = replace(candidate, build=with_generators_lag)
+        blocks = candidate.blocks + ((ParameterBlock("response_time", 3, 0.0, 0.5, 0.1, 0.1, "s"),)
+                                     if lag == "fitted" else ())
+        candidate = replace(candidate, build=with_lag, blocks=blocks)
     base = _with_fit_offsets(RavenModel(record.generator.without("hysteresis"), np.zeros(3),
                                         follows_hysteresis_lag=follows_lag),
                              record.signals, record.split, record.robot)
@@ -284,6 +299,9 @@ def main(argv: list[str] | None = None) -> dict:
                         help="the generator's hysteresis response times, 'default' or s from 0 to 1, by commas")
     parser.add_argument("--fit", action="store_true",
                         help="also fit the library's hysteresis candidate on the generator's base")
+    parser.add_argument("--fit-lag", action="store_true",
+                        help="with --fit: also fit the candidate with a lag of the replay's Bouc-Wen state fitted "
+                             "with it (0 to 0.5 s per joint, from 0.1 s)")
     parser.add_argument("--fit-iterations", type=positive_int, default=150,
                         help="with --fit: most IPOPT iterations of the candidate's fit")
     parser.add_argument("--runs", nargs="+", type=existing_path, default=(), metavar="RUN",
@@ -291,6 +309,8 @@ def main(argv: list[str] | None = None) -> dict:
                              "them beside")
     parser.add_argument("--out", type=Path, default=None, help="write the figures to this JSON file")
     args = parser.parse_args(argv)
+    if args.fit_lag and not args.fit:
+        fail(parser.prog, "--fit-lag goes with --fit")
     try:
         runs = blind_runs(args.runs, args.duration)
     except UsageError as error:
@@ -315,16 +335,22 @@ def main(argv: list[str] | None = None) -> dict:
             for name, values in figures["factors"].items():
                 print(f"seed {seed}, {_label(lag)}, {name}: " + ", ".join(map(_factor, values)), flush=True)
             if args.fit:
-                fits = {"fit": False}
+                fits = {"fit": "none"}
                 if REPLAYS[2] in figures["factors"]:
-                    fits["fit following the generator's lag"] = True
-                for key, follows_lag in fits.items():
-                    fit = figures[key] = candidate_on_generator_base(record, args.fit_iterations, follows_lag)
+                    fits["fit following the generator's lag"] = "generator's"
+                if args.fit_lag:
+                    fits["fit following a fitted lag"] = "fitted"
+                for key, fit_lag in fits.items():
+                    fit = figures[key] = candidate_on_generator_base(record, args.fit_iterations, fit_lag)
                     ends = f" (at its range's end: {', '.join(fit['at_range_end'])})" if fit["at_range_end"] else ""
+                    fitted_lag = ("; lag " + ", ".join(f"{v:.3f} s" for v in fit["values"]["response_time"])
+                                  if fit_lag == "fitted" else "")
                     print(f"seed {seed}, {_label(lag)}, the candidate fitted on the generator's base"
-                          + (", the replay following the generator's lag" if follows_lag else "")
+                          + {"none": "", "generator's": ", the replay following the generator's lag",
+                             "fitted": ", the replay following a lag fitted with it"}[fit_lag]
                           + ": loop height " + ", ".join(f"{100 * e:+.1f} %" for e in fit["loop_error"])
-                          + "; shape " + ", ".join(f"{v:.2f}" for v in fit["values"]["shape"]) + ends, flush=True)
+                          + "; shape " + ", ".join(f"{v:.2f}" for v in fit["values"]["shape"]) + fitted_lag + ends,
+                          flush=True)
             out["runs"][seed][_label(lag)] = figures
     if runs:
         first = _label(lags[0])

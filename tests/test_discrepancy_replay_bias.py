@@ -88,6 +88,7 @@ def test_the_factor_is_put_beside_the_blind_run_of_its_seed_and_ranked_with_it(t
     (["--response-times", "2"], "'2' is not 'default' or a response time: must be between 0 and 1 s, got 2"),
     (["--seeds", "0"], "--seeds"),
     (["--fit-iterations", "0"], "--fit-iterations"),
+    (["--fit-lag"], "--fit-lag goes with --fit"),
 ])
 def test_bad_options_are_refused_in_one_line(argv, message, capsys):
     with pytest.raises(SystemExit) as exit_info:
