@@ -47,13 +47,15 @@ class HysteresisRun:
     """What one report says about its fitted hysteresis beside the generator's.
 
     ``shortfall`` in points (percent of the gap); each error a fraction (0.1 = 10 % too large),
-    one per joint in the order of ``joints``."""
+    one per joint in the order of ``joints``; ``record_s`` the record's length (s), None where the
+    report does not say it."""
 
     source: str
     seed: int | None
     joints: tuple[str, ...]
     shortfall: float
     errors: dict[str, np.ndarray]
+    record_s: float | None = None
 
 
 def hysteretic_amplitude(parameters: dict) -> np.ndarray:
@@ -109,8 +111,10 @@ def read_run(path: Path) -> HysteresisRun:
     for name, error in errors.items():
         if not np.all(np.isfinite(error)):
             raise UsageError(f"{report_path}: the {name.replace('_', ' ')} is not finite or the generator's is 0")
+    length = report.get("record_s")
     return HysteresisRun(str(report_path), report.get("seed"), tuple(report.get("joints", ())),
-                         100.0 * (float(bound) - float(report["shrink"])), errors)
+                         100.0 * (float(bound) - float(report["shrink"])), errors,
+                         float(length) if isinstance(length, (int, float)) else None)
 
 
 def rank_correlations(runs: list[HysteresisRun]) -> dict[str, list[float | None]] | None:

@@ -162,9 +162,16 @@ def stiffness_factors(record: Record) -> dict[str, list[float]]:
                    for j in range(len(JOINTS))] for name, (s, lagged) in replays.items()}
 
 
-def loop_height(stiffness, beta, gamma) -> np.ndarray:
-    """The hysteretic load's largest value per joint, ``stiffness / (beta + gamma)`` (N m, N m, N)."""
-    return np.asarray(stiffness, dtype=float) / (np.asarray(beta, dtype=float) + np.asarray(gamma, dtype=float))
+def effect_loop_height(hysteresis) -> np.ndarray:
+    """The loop height of a :class:`~simulation.model.effects.Hysteresis` (its largest hysteretic load
+    per joint, ``stiffness / (beta + gamma)``, N m, N m, N), through
+    :func:`~studies.discrepancy_hysteresis_amplitude.hysteretic_amplitude` in the candidate's terms
+    (``width = 1 / beta``, ``shape = gamma / beta``)."""
+    from studies.discrepancy_hysteresis_amplitude import hysteretic_amplitude
+
+    beta = np.asarray(hysteresis.beta, dtype=float)
+    return hysteretic_amplitude({"stiffness": hysteresis.stiffness, "width": 1.0 / beta,
+                                 "shape": np.asarray(hysteresis.gamma, dtype=float) / beta})
 
 
 def candidate_on_generator_base(record: Record, max_iter: int, lag: str = "none") -> dict:
@@ -183,6 +190,7 @@ def candidate_on_generator_base(record: Record, max_iter: int, lag: str = "none"
     from simulation.discrepancy.replay import RavenModel
     from simulation.discrepancy.workflow import values_at_bounds
     from studies.common.discrepancy_runs import raven_library
+    from studies.discrepancy_hysteresis_amplitude import hysteretic_amplitude
 
     if lag not in FIT_LAGS:
         raise ValueError(f"lag must be one of {', '.join(FIT_LAGS)}, got {lag!r}")
@@ -207,12 +215,12 @@ def candidate_on_generator_base(record: Record, max_iter: int, lag: str = "none"
                                 mask=record.split.fit, starts=1, max_iter=max_iter)
     values = candidate.unpack(theta)
     true = record.generator.effect("hysteresis")
-    fitted = loop_height(values["stiffness"], 1.0 / values["width"], values["shape"] / values["width"])
+    fitted = hysteretic_amplitude(values)
     lower, upper, _, _ = candidate.bounds()
     names = [f"{block.name}[{JOINTS[j]}]" for block in candidate.blocks for j in range(block.size)]
     at_end = [name for name, end in zip(names, values_at_bounds(theta, lower, upper)) if end]
     return {"values": {name: np.asarray(v, dtype=float).tolist() for name, v in values.items()},
-            "loop_error": (fitted / loop_height(true.stiffness, true.beta, true.gamma) - 1.0).tolist(),
+            "loop_error": (fitted / effect_loop_height(true) - 1.0).tolist(),
             "at_range_end": at_end}
 
 
@@ -221,8 +229,6 @@ def blind_runs(paths, duration: float) -> dict[int, object]:
     ``studies/discrepancy_hysteresis_amplitude.py`` reads them); a report without a seed, two of one
     seed, or one of a record whose length is not within 5 % of ``duration`` s (the records this study
     generates) is refused."""
-    import json
-
     from studies.discrepancy_hysteresis_amplitude import read_run
 
     runs = {}
@@ -230,9 +236,8 @@ def blind_runs(paths, duration: float) -> dict[int, object]:
         run = read_run(path)
         if run.seed is None:
             raise UsageError(f"{run.source} does not say its seed")
-        length = json.loads(Path(run.source).read_text()).get("record_s")
-        if not isinstance(length, (int, float)) or abs(length - duration) > 0.05 * duration:
-            raise UsageError(f"{run.source} is of a {length} s record, not of the {duration:g} s this study "
+        if run.record_s is None or abs(run.record_s - duration) > 0.05 * duration:
+            raise UsageError(f"{run.source} is of a {run.record_s} s record, not of the {duration:g} s this study "
                              "generates (--duration)")
         if run.seed in runs:
             raise UsageError(f"two reports of seed {run.seed}: {runs[run.seed].source} and {run.source}")
@@ -318,9 +323,8 @@ def main(argv: list[str] | None = None) -> dict:
     if runs and (args.seed is not None or args.seeds is not None):
         fail(parser.prog, "--runs measures the seeds of its reports: leave out --seed and --seeds")
     lags = args.response_times
-    seeds = sorted(runs) if runs else list(range(DEFAULT_SEED if args.seed is None else args.seed,
-                                                 (DEFAULT_SEED if args.seed is None else args.seed)
-                                                 + (1 if args.seeds is None else args.seeds)))
+    first_seed = DEFAULT_SEED if args.seed is None else args.seed
+    seeds = sorted(runs) if runs else list(range(first_seed, first_seed + (args.seeds or 1)))
     out = {"seeds": seeds, "duration_s": args.duration, "factor_range": list(FACTOR_RANGE), "joints": list(JOINTS),
            "runs": {}}
     print("factor of the generator's hysteresis stiffness at the fit part's smallest weighted sum of squares "

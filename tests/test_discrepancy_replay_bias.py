@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from studies.discrepancy_replay_bias import (FACTOR_TOLERANCE, base_weights, beside_blind_runs, generated, loop_height,
-                                             main, stiffness_factor)
+from studies.discrepancy_replay_bias import (FACTOR_TOLERANCE, base_weights, beside_blind_runs, effect_loop_height,
+                                             generated, main, stiffness_factor)
 
 
 def _replayed_record(record, stiffness_scale, rounds=6):
@@ -48,8 +48,12 @@ def test_on_records_the_replay_made_itself_the_factor_is_the_one_they_were_made_
 
 
 def test_the_loop_height_is_the_candidates_stiffness_times_width_over_one_plus_shape():
+    from simulation.model.effects import Hysteresis
+
     stiffness, width, shape = np.array([12.0, 4.0, 200.0]), np.array([3e-3, 4e-3, 8e-5]), np.array([0.4, 0.9, 0.0])
-    np.testing.assert_allclose(loop_height(stiffness, 1 / width, shape / width), stiffness * width / (1 + shape))
+    loops = Hysteresis(stiffness=stiffness, beta=1 / width, gamma=shape / width)
+    np.testing.assert_allclose(effect_loop_height(loops), stiffness * width / (1 + shape))
+    np.testing.assert_allclose(effect_loop_height(loops), loops.stiffness / (loops.beta + loops.gamma))
 
 
 def _report(seed, elbow_scale, shrink):
