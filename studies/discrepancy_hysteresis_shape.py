@@ -28,6 +28,13 @@ fitted the lag by default, except that the candidate's constant is now a round 0
     The library's hysteresis candidate holds its shape ``gamma / beta`` at X (0 to 1) instead of
     fitting it, in the blind analysis and in the oracle; its stiffness and width are fitted as
     usual (the report's ``at_bound`` then lists the shape, held at both ends of its range).
+``--fit-replay-lag``
+    The library's hysteresis candidate fits a response time per joint with its other parameters
+    (from a round 0.1 s, within 0 to 0.5 s), and the quasi-static replay's Bouc-Wen state follows
+    the stretch over it (``RavenModel.follows_hysteresis_lag``), in the blind analysis and in the
+    oracle: whether a workflow that fits the lag it replays closes more of the gap. The plant
+    replay that scores the final models takes those lags, or fits its own with ``--fit-scorer-lag``
+    (not with ``--scorer-lag``).
 
 ``--backfit-patience N`` passes the command's option of that name to the blind analysis (and so
 to the oracle). None of these changes the analysis's code path: the record reaches it as a file.
@@ -38,12 +45,13 @@ candidate's 0.1 s, the generator's 0.05 s); with ``--fit-scorer-lag`` alone, the
     python studies/discrepancy_hysteresis_shape.py --seed 97 --scorer-lag 0.2 --out DIR
     python studies/discrepancy_hysteresis_shape.py --seed 97 --response-time 0.2 --fit-scorer-lag --out DIR
     python studies/discrepancy_hysteresis_shape.py --seed 97 --pin-shape 0.4 --out DIR
+    python studies/discrepancy_hysteresis_shape.py --seed 124 --fit-replay-lag --fit-scorer-lag --out DIR
 
 It prints the named effects, the fitted shape, stiffness and width beside the generator's, the
 first iteration's fit-part gap and BIC, and the shrink (plant and quasi-static) beside the plant
 floor's bound; ``DIR/report.json`` is the command's report with ``response_time_s``,
-``scorer_lag_s`` (the fitted lag with ``--fit-scorer-lag``), ``scorer_lag_fitted`` and
-``pinned_shape`` added.
+``scorer_lag_s`` (the fitted lag with ``--fit-scorer-lag``, the replay's per joint with
+``--fit-replay-lag`` alone), ``scorer_lag_fitted``, ``replay_lag_fitted`` and ``pinned_shape`` added.
 """
 
 from __future__ import annotations
@@ -54,6 +62,7 @@ from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 
+from simulation.discrepancy.candidates import ParameterBlock
 from studies.common.discrepancy_runs import DEFAULT_RECORD_S, record_length
 from studies.common.runner import StudyRun, non_negative_int, number_between, script_parser, say
 
@@ -67,13 +76,36 @@ shape_value = number_between(0.0, 1.0, note=" (the candidate's range)")
 """A Bouc-Wen shape ``gamma / beta`` from 0 to 1, the candidate's range."""
 
 
+REPLAY_LAG = ParameterBlock("response_time", 3, 0.0, 0.5, 0.1, 0.1, "s")
+"""The response time per joint that ``--fit-replay-lag`` fits with the hysteresis candidate: from a
+round 0.1 s (the candidate's constant), within 0 to 0.5 s, as ``studies/discrepancy_replay_bias.py
+--fit-lag`` fits it on the generator's base."""
+
+
+def _fitting_its_lag(candidate):
+    """The hysteresis ``candidate`` with a response time per joint fitted with it (:data:`REPLAY_LAG`),
+    building models whose quasi-static replay follows that lag
+    (:attr:`~simulation.discrepancy.replay.RavenModel.follows_hysteresis_lag`)."""
+    own = candidate.build
+
+    def build(model, values):
+        built = own(model, values)
+        effect = built.params.effect("hysteresis").replace(response_time=values["response_time"])
+        return replace(built.with_effect(effect), follows_hysteresis_lag=True)
+
+    return replace(candidate, blocks=candidate.blocks + (REPLAY_LAG,), build=build)
+
+
 @contextmanager
-def hysteresis_candidate(shape: float | None, lag: float | None):
+def hysteresis_candidate(shape: float | None, lag: float | None, fit_lag: bool = False):
     """Within the block, the library's hysteresis candidate holds its shape at ``shape`` (None:
     fitted) and builds a hysteresis of response time ``lag`` seconds (None: the candidate's own,
-    ``candidates.HYSTERESIS_RESPONSE_TIME``)."""
+    ``candidates.HYSTERESIS_RESPONSE_TIME``); with ``fit_lag`` it fits a response time per joint
+    instead, which the quasi-static replay follows (``lag`` must then be None)."""
     from simulation.discrepancy import candidates
 
+    if fit_lag and lag is not None:
+        raise ValueError("a fitted replay lag leaves no constant lag to the candidate")
     library, own_lag = candidates.raven_candidates, candidates.HYSTERESIS_RESPONSE_TIME
 
     def pinned(signals):
@@ -83,6 +115,8 @@ def hysteresis_candidate(shape: float | None, lag: float | None):
                 blocks = tuple(replace(b, lower=shape, upper=shape, initial=shape) if b.name == "shape" else b
                                for b in candidate.blocks)
                 candidate = replace(candidate, blocks=blocks)
+            if candidate.name == "hysteresis" and fit_lag:
+                candidate = _fitting_its_lag(candidate)
             out.append(candidate)
         return out
 
@@ -116,6 +150,11 @@ def summary(report: dict) -> dict:
             "fitted": report["fitted_parameters"].get("hysteresis"), "true": report["true_parameters"]["hysteresis"]}
 
 
+def _check_lags(args) -> None:
+    if args.fit_replay_lag and args.scorer_lag is not None:
+        raise ValueError("--fit-replay-lag gives the scorer the fitted lags: leave out --scorer-lag")
+
+
 def _values(values) -> str:
     return ", ".join(f"{v:.3g}" for v in values)
 
@@ -142,10 +181,13 @@ def main(argv: list[str] | None = None) -> int:
                              "does by default) instead of taking one")
     parser.add_argument("--pin-shape", type=shape_value, default=None, metavar="X",
                         help="the candidate's shape gamma/beta held at X (0 to 1; without it, fitted)")
+    parser.add_argument("--fit-replay-lag", action="store_true",
+                        help="the candidate fits a response time per joint (0 to 0.5 s, from 0.1 s) that the "
+                             "quasi-static replay's Bouc-Wen state follows, in the blind analysis and the oracle")
     parser.add_argument("--backfit-patience", type=non_negative_int, default=None, metavar="N",
                         help="the command's --backfit-patience (without it, the workflow's default)")
     parser.add_argument("--out", type=Path, default=Path("results") / STUDY)
-    with StudyRun(parser, argv) as study:
+    with StudyRun(parser, argv, configure=_check_lags) as study:
         args = study.args
         say(f"generating {args.duration:.0f} s of motion with hysteresis hidden"
             + ("" if args.response_time is None else f" (response time {args.response_time:g} s)") + "...")
@@ -153,8 +195,9 @@ def main(argv: list[str] | None = None) -> int:
                                                params=generator_with(args.response_time))
         path = write_measured(dataset, study.folder)
         del dataset
-        scorer_lag = None if args.fit_scorer_lag else args.response_time if args.scorer_lag is None else args.scorer_lag
-        with hysteresis_candidate(args.pin_shape, scorer_lag):
+        scorer_lag = (None if args.fit_scorer_lag or args.fit_replay_lag
+                      else args.response_time if args.scorer_lag is None else args.scorer_lag)
+        with hysteresis_candidate(args.pin_shape, scorer_lag, fit_lag=args.fit_replay_lag):
             result, signals, split, plant, _ = analyse(path, study.folder, shown_path=study.final(path),
                                                        backfit_patience=args.backfit_patience,
                                                        fit_plant_lag=args.fit_scorer_lag)
@@ -163,21 +206,35 @@ def main(argv: list[str] | None = None) -> int:
         report_path = study.folder / "report.json"
         report = json.loads(report_path.read_text())
         report["response_time_s"] = float(generator.effect("hysteresis").response_time[0])
-        report["scorer_lag_s"] = ((report["plant_replay"] or {}).get("hysteresis_lag_s") if args.fit_scorer_lag else
-                                  float(candidates.HYSTERESIS_RESPONSE_TIME if scorer_lag is None else scorer_lag))
+        if args.fit_scorer_lag:
+            report["scorer_lag_s"] = (report["plant_replay"] or {}).get("hysteresis_lag_s")
+        elif args.fit_replay_lag:
+            # the replay's lags, one per joint, fitted with the named hysteresis (None when none is named)
+            report["scorer_lag_s"] = (report["fitted_parameters"].get("hysteresis") or {}).get("response_time")
+        else:
+            report["scorer_lag_s"] = float(candidates.HYSTERESIS_RESPONSE_TIME if scorer_lag is None else scorer_lag)
         report["scorer_lag_fitted"] = bool(args.fit_scorer_lag)
+        report["replay_lag_fitted"] = bool(args.fit_replay_lag)
         report["pinned_shape"] = args.pin_shape
         report_path.write_text(json.dumps(report, indent=1))
         study.publish()
     s = summary(report)
     scorer = report["scorer_lag_s"]
-    scorer = "none" if scorer is None else f"{scorer:.3g} s" + (", fitted" if args.fit_scorer_lag else "")
+    if scorer is None:
+        scorer = "none"
+    elif isinstance(scorer, list):
+        scorer = f"{_values(scorer)} s, the replay's"
+    else:
+        scorer = f"{scorer:.3g} s" + (", fitted" if args.fit_scorer_lag else "")
     print(f"response time {report['response_time_s']:g} s (scorer's {scorer}); shape "
           + ("fitted" if args.pin_shape is None else f"pinned at {args.pin_shape:g}"))
     print(f"named: {', '.join(s['named_effects']) or 'nothing'}")
     if s["fitted"] is not None:
         for name in ("shape", "stiffness", "width"):
             print(f"  {name:9s} fitted {_values(s['fitted'][name])}   generator {_values(s['true'][name])}")
+        if "response_time" in s["fitted"]:
+            print(f"  replay lag fitted {_values(s['fitted']['response_time'])} s   generator "
+                  f"{report['response_time_s']:g} s")
     print(f"first iteration: fit-part gap {s['first_fit_gap']:.5g}, BIC {s['first_bic']:.0f}")
     bound = s["plant_floor_bound"]
     print(f"shrink {100 * s['shrink']:.1f} % (plant; bound {100 * bound:.1f} %), "

@@ -388,6 +388,9 @@ def test_column_means_are_numpys_to_the_last_bit_in_every_layout(layout):
     # a scorer that fits its lag leaves the candidate's constant alone, whatever the generator's
     (["--response-time", "0.2", "--fit-scorer-lag"], 0.2, 0.1, True),
     (["--fit-scorer-lag"], 0.05, 0.1, True),
+    # a replay that fits its lag leaves the candidate's constant alone too
+    (["--fit-replay-lag"], 0.05, 0.1, False),
+    (["--fit-replay-lag", "--fit-scorer-lag", "--response-time", "0.2"], 0.2, 0.1, True),
 ])
 def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypatch, tmp_path, options,
                                                                         generator_lag, scorer_lag, fitted):
@@ -420,6 +423,56 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
                     "analysed": ("measured.parquet", patience, scorer_lag, fitted)}
     assert candidates.HYSTERESIS_RESPONSE_TIME == 0.1
     assert not out.exists()
+
+
+def test_the_shape_studys_fitted_replay_lag_is_a_parameter_the_replay_follows_joint_by_joint(record):
+    from dataclasses import replace
+
+    from studies.discrepancy_hysteresis_shape import hysteresis_candidate
+
+    signals, model, robot = record
+    theta = np.array([10.0, 4.0, 200.0, 3e-3, 4e-3, 1e-4, 0.4, 0.4, 0.4, 0.0, 0.2, 0.0])
+    with hysteresis_candidate(None, None, fit_lag=True):
+        (candidate,) = raven_library(signals, ("hysteresis",))
+        lower, upper, _, typical = candidate.bounds()
+        built = candidate.apply(model, theta)
+    assert [b.name for b in candidate.blocks] == ["stiffness", "width", "shape", "response_time"]
+    np.testing.assert_array_equal(lower[9:], 0.0)
+    np.testing.assert_array_equal(upper[9:], 0.5)
+    np.testing.assert_array_equal(typical[9:], 0.1)
+    assert built.follows_hysteresis_lag
+    effect = built.params.effect("hysteresis")
+    np.testing.assert_array_equal(effect.response_time, [0.0, 0.2, 0.0])
+    by_hand = replace(model.with_effect(Hysteresis(stiffness=theta[:3], beta=1.0 / theta[3:6],
+                                                   gamma=theta[6:9] / theta[3:6], response_time=theta[9:])),
+                      follows_hysteresis_lag=True)
+    lagged, expected = built.replay(signals, robot), by_hand.replay(signals, robot)
+    np.testing.assert_array_equal(lagged.joints, expected.joints)
+    # only the elbow's state lags: the joints without a lag replay as without the option
+    unlagged = replace(built, follows_hysteresis_lag=False).replay(signals, robot)
+    np.testing.assert_array_equal(lagged.joints[:, [0, 2]], unlagged.joints[:, [0, 2]])
+    assert np.max(np.abs(lagged.joints[:, 1] - unlagged.joints[:, 1])) > 1e-6
+    # outside the block the library's candidate is its own again, and a constant lag has no place beside a fitted one
+    (candidate,) = raven_library(signals, ("hysteresis",))
+    assert [b.name for b in candidate.blocks] == ["stiffness", "width", "shape"]
+    assert not candidate.apply(model, theta[:9]).follows_hysteresis_lag
+    with pytest.raises(ValueError, match="no constant lag"):
+        with hysteresis_candidate(None, 0.1, fit_lag=True):
+            pass
+
+
+def test_a_rebased_model_replays_its_hysteresis_as_the_model_it_was_taken_from(record):
+    from dataclasses import replace
+
+    from simulation.discrepancy.workflow import _transplant
+
+    signals, model, robot = record
+    hysteresis = Hysteresis(stiffness=np.array([10.0, 4.0, 200.0]), response_time=np.array([0.1, 0.2, 0.1]))
+    source = replace(model.with_effect(hysteresis), follows_hysteresis_lag=True)
+    moved = _transplant(source, model, ("hysteresis",))
+    assert moved.follows_hysteresis_lag
+    np.testing.assert_array_equal(moved.replay(signals, robot).joints, source.replay(signals, robot).joints)
+    assert not _transplant(replace(source, follows_hysteresis_lag=False), model, ("hysteresis",)).follows_hysteresis_lag
 
 
 def test_the_shape_study_holds_the_candidates_shape_and_lag_only_within_its_block(record):

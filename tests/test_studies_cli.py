@@ -73,6 +73,8 @@ SCRIPT_MISTAKES = [
     ("discrepancy_hysteresis_shape", ["--backfit-patience", "-1"], "--backfit-patience"),
     ("discrepancy_hysteresis_shape", ["--scorer-lag", "0.1", "--fit-scorer-lag"],
      "argument --fit-scorer-lag: not allowed with argument --scorer-lag"),
+    ("discrepancy_hysteresis_shape", ["--fit-replay-lag", "--scorer-lag", "0.1"],
+     "--fit-replay-lag gives the scorer the fitted lags: leave out --scorer-lag"),
     ("homing", ["--out", "{tmp}/a_file.txt"], "is a file"),
     ("input_features", ["--hours", "-1"], "--hours"),
     ("long_operation", ["--kinds", "idle,sleeping"], "sleeping"),

@@ -25,7 +25,7 @@ and the weighted two-channel residual is what tells them apart.
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -492,9 +492,12 @@ def _without(model, names):
 
 
 def _transplant(source, target, names):
-    """``target`` with the effects ``names`` (and their parameters) taken from ``source``."""
+    """``target`` with the effects ``names`` (and their parameters) taken from ``source``, replayed as
+    ``source`` replays them (whether a hysteresis's state follows its lag)."""
     if isinstance(target, RavenModel):
         model = target
+        if isinstance(source, RavenModel) and source.follows_hysteresis_lag != model.follows_hysteresis_lag:
+            model = replace(model, follows_hysteresis_lag=source.follows_hysteresis_lag)
         for name in names:
             if name in ("homing_offset", "registration_offset"):
                 model = model.with_homing_offsets(source.homing_offsets, name)
