@@ -33,7 +33,10 @@ run, from its typical values, at most ``--fit-iterations`` IPOPT iterations) on 
 base, its parameters without the hysteresis: the loop height per joint over the generator's and the
 fitted shape; where the generator's hysteresis lags, fitted also with the replay following that lag,
 and with ``--fit-lag`` also with the replay following a lag per joint fitted with the candidate (0 to
-0.5 s, from a round 0.1 s): whether the quasi-static replay can find the lag itself.
+0.5 s, from a round 0.1 s): whether the quasi-static replay can find the lag itself. With
+``--on-starting-base`` these fits are made on the blind analysis's starting model instead (the
+starting structure identified on the fit part, weighed as the workflow weighs it): the base the
+analysis's first iteration fits its candidates on, before any backfit.
 With ``--runs``, the reports of ``--hidden-effect hysteresis`` runs (as
 ``studies/discrepancy_hysteresis_amplitude.py`` reads them): the seeds measured are theirs, and
 beside the replay's elbow factor of each seed are its blind fit's elbow loop-height error and its
@@ -42,6 +45,7 @@ seeds. Run::
 
     python studies/discrepancy_replay_bias.py --seed 124 --seeds 5 --out bias.json
     python studies/discrepancy_replay_bias.py --fit --runs results/hysteresis-124 results/hysteresis-125 ...
+    python studies/discrepancy_replay_bias.py --seed 124 --seeds 5 --fit --fit-lag --on-starting-base
 """
 
 from __future__ import annotations
@@ -72,7 +76,11 @@ REPLAYS = ("the workflow's replay", "without the links' inertial loads", "follow
 JOINTS = ("shoulder", "elbow", "z_ins")
 
 FIT_LAGS = ("none", "generator's", "fitted")
-"""What the replay's Bouc-Wen state follows in :func:`candidate_on_generator_base`."""
+"""What the replay's Bouc-Wen state follows in :func:`fitted_candidate`."""
+
+BASES = ("generator's", "starting")
+"""What :func:`fitted_candidate` fits the candidate on: the generator's parameters without the
+hysteresis, or the blind analysis's starting model (:func:`starting_base`)."""
 
 DEFAULT_SEED = 124
 """The seed measured without ``--seed`` or ``--runs``: the one whose blind fit overshoots most."""
@@ -87,12 +95,16 @@ class Record:
     robot: object
     generator: object
     weights: object
+    starting: tuple | None = None
+    """The starting model the blind analysis identifies and the workflow's weights of its residual
+    (:func:`starting_base`), when asked for."""
 
 
-def generated(seed: int, duration: float, response_time: float | None) -> Record:
+def generated(seed: int, duration: float, response_time: float | None, starting: bool = False) -> Record:
     """Seed ``seed``'s record of ``duration`` s with the hysteresis hidden (its response time
     ``response_time`` s; None: the effect's default), written and read as the analysis reads its
-    file; the channel weights of the generator's parameters without the hysteresis on the fit part."""
+    file; the channel weights of the generator's parameters without the hysteresis on the fit part;
+    with ``starting``, also the blind analysis's starting model (:func:`starting_base`)."""
     from kinematics import RavenII
     from simulation.discrepancy.signals import MeasuredSignals
     from simulation.discrepancy.workflow import Split
@@ -105,7 +117,23 @@ def generated(seed: int, duration: float, response_time: float | None) -> Record
     signals = MeasuredSignals.from_dataset(dataset)
     split = Split.by_time(signals)
     robot = RavenII(signals.arm, check_limits=False)
-    return Record(signals, split, robot, generator, base_weights(generator, signals, split, robot))
+    return Record(signals, split, robot, generator, base_weights(generator, signals, split, robot),
+                  starting_base(dataset, signals, split, robot) if starting else None)
+
+
+def starting_base(dataset, signals, split, robot) -> tuple:
+    """The model the blind analysis's first iteration fits its candidates on: the starting structure
+    identified on the fit part from the uninformed start, with the fit part's offsets; and the
+    channel weights the workflow gives its residual there (as ``run_workflow`` weighs: offsets not
+    fitted again, a floor of 0.001 deg and mm)."""
+    from simulation.discrepancy.fitting import ChannelWeights, residual
+    from simulation.discrepancy.signals import report_scale
+    from studies.common.discrepancy_runs import STARTING_STRUCTURE, raven_base_identifier
+
+    model = raven_base_identifier(dataset, split.fit, STARTING_STRUCTURE).identify(tuple(STARTING_STRUCTURE), None)
+    model = _with_fit_offsets(model, signals, split, robot)
+    fit = residual(model, signals, robot, offsets=np.zeros(signals.n_joints), mask=split.fit)
+    return model, ChannelWeights.from_residual(fit.joints, fit.torque, 1e-3 / report_scale(signals.units))
 
 
 def _with_fit_offsets(model, signals, split, robot):
@@ -174,9 +202,11 @@ def effect_loop_height(hysteresis) -> np.ndarray:
                                  "shape": np.asarray(hysteresis.gamma, dtype=float) / beta})
 
 
-def candidate_on_generator_base(record: Record, max_iter: int, lag: str = "none") -> dict:
+def fitted_candidate(record: Record, max_iter: int, lag: str = "none", base: str = "generator's") -> dict:
     """The library's hysteresis candidate fitted with the quasi-static replay on the fit part, on the
-    generator's parameters without the hysteresis: its values, its loop height over the generator's
+    generator's parameters without the hysteresis (``base`` ``"generator's"``, weighed as
+    :func:`base_weights`) or on the blind analysis's starting model (``"starting"``, weighed as the
+    workflow weighs it; the record must hold it): its values, its loop height over the generator's
     minus 1 per joint, and the fitted values at an end of their search range (as the workflow's
     reports mark them). ``lag`` (one of :data:`FIT_LAGS`) is what the replay's Bouc-Wen state
     follows: ``"none"`` the stretch itself (the workflow's replay), ``"generator's"`` the stretch
@@ -194,6 +224,10 @@ def candidate_on_generator_base(record: Record, max_iter: int, lag: str = "none"
 
     if lag not in FIT_LAGS:
         raise ValueError(f"lag must be one of {', '.join(FIT_LAGS)}, got {lag!r}")
+    if base not in BASES:
+        raise ValueError(f"base must be one of {', '.join(BASES)}, got {base!r}")
+    if base == "starting" and record.starting is None:
+        raise ValueError("the record holds no starting model: generate it with starting=True")
     (candidate,) = raven_library(record.signals, ("hysteresis",))
     follows_lag = lag != "none"
     if follows_lag:
@@ -208,11 +242,15 @@ def candidate_on_generator_base(record: Record, max_iter: int, lag: str = "none"
         blocks = candidate.blocks + ((ParameterBlock("response_time", 3, 0.0, 0.5, 0.1, 0.1, "s"),)
                                      if lag == "fitted" else ())
         candidate = replace(candidate, build=with_lag, blocks=blocks)
-    base = _with_fit_offsets(RavenModel(record.generator.without("hysteresis"), np.zeros(3),
-                                        follows_hysteresis_lag=follows_lag),
-                             record.signals, record.split, record.robot)
-    theta, _, _ = fit_candidate(candidate, base, record.signals, record.weights, record.robot,
-                                mask=record.split.fit, starts=1, max_iter=max_iter)
+    if base == "starting":
+        model, weights = record.starting
+        model = replace(model, follows_hysteresis_lag=follows_lag)
+    else:
+        model, weights = _with_fit_offsets(RavenModel(record.generator.without("hysteresis"), np.zeros(3),
+                                                      follows_hysteresis_lag=follows_lag),
+                                           record.signals, record.split, record.robot), record.weights
+    theta, _, chi_square = fit_candidate(candidate, model, record.signals, weights, record.robot,
+                                         mask=record.split.fit, starts=1, max_iter=max_iter)
     values = candidate.unpack(theta)
     true = record.generator.effect("hysteresis")
     fitted = hysteretic_amplitude(values)
@@ -221,7 +259,7 @@ def candidate_on_generator_base(record: Record, max_iter: int, lag: str = "none"
     at_end = [name for name, end in zip(names, values_at_bounds(theta, lower, upper)) if end]
     return {"values": {name: np.asarray(v, dtype=float).tolist() for name, v in values.items()},
             "loop_error": (fitted / effect_loop_height(true) - 1.0).tolist(),
-            "at_range_end": at_end}
+            "at_range_end": at_end, "chi_square": float(chi_square)}
 
 
 def blind_runs(paths, duration: float) -> dict[int, object]:
@@ -307,6 +345,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--fit-lag", action="store_true",
                         help="with --fit: also fit the candidate with a lag of the replay's Bouc-Wen state fitted "
                              "with it (0 to 0.5 s per joint, from 0.1 s)")
+    parser.add_argument("--on-starting-base", action="store_true",
+                        help="with --fit: fit the candidate on the starting model the blind analysis identifies "
+                             "(its first iteration's base) instead of the generator's base")
     parser.add_argument("--fit-iterations", type=positive_int, default=150,
                         help="with --fit: most IPOPT iterations of the candidate's fit")
     parser.add_argument("--runs", nargs="+", type=existing_path, default=(), metavar="RUN",
@@ -316,6 +357,8 @@ def main(argv: list[str] | None = None) -> dict:
     args = parser.parse_args(argv)
     if args.fit_lag and not args.fit:
         fail(parser.prog, "--fit-lag goes with --fit")
+    if args.on_starting_base and not args.fit:
+        fail(parser.prog, "--on-starting-base goes with --fit")
     try:
         runs = blind_runs(args.runs, args.duration)
     except UsageError as error:
@@ -333,7 +376,7 @@ def main(argv: list[str] | None = None) -> dict:
         out["runs"][seed] = {}
         for lag in lags:
             say(f"seed {seed}: generating {args.duration:g} s with the hysteresis hidden ({_label(lag)})...")
-            record = generated(seed, args.duration, lag)
+            record = generated(seed, args.duration, lag, starting=args.on_starting_base)
             figures = {"response_time_s": float(record.generator.effect("hysteresis").response_time[0]),
                        "factors": stiffness_factors(record)}
             for name, values in figures["factors"].items():
@@ -344,16 +387,19 @@ def main(argv: list[str] | None = None) -> dict:
                     fits["fit following the generator's lag"] = "generator's"
                 if args.fit_lag:
                     fits["fit following a fitted lag"] = "fitted"
+                base = "starting" if args.on_starting_base else "generator's"
                 for key, fit_lag in fits.items():
-                    fit = figures[key] = candidate_on_generator_base(record, args.fit_iterations, fit_lag)
+                    key = key.replace("fit", "fit on the starting base", 1) if args.on_starting_base else key
+                    fit = figures[key] = fitted_candidate(record, args.fit_iterations, fit_lag, base)
                     ends = f" (at its range's end: {', '.join(fit['at_range_end'])})" if fit["at_range_end"] else ""
                     fitted_lag = ("; lag " + ", ".join(f"{v:.3f} s" for v in fit["values"]["response_time"])
                                   if fit_lag == "fitted" else "")
-                    print(f"seed {seed}, {_label(lag)}, the candidate fitted on the generator's base"
+                    print(f"seed {seed}, {_label(lag)}, the candidate fitted on the {base} base"
                           + {"none": "", "generator's": ", the replay following the generator's lag",
                              "fitted": ", the replay following a lag fitted with it"}[fit_lag]
                           + ": loop height " + ", ".join(f"{100 * e:+.1f} %" for e in fit["loop_error"])
-                          + "; shape " + ", ".join(f"{v:.2f}" for v in fit["values"]["shape"]) + fitted_lag + ends,
+                          + "; shape " + ", ".join(f"{v:.2f}" for v in fit["values"]["shape"]) + fitted_lag
+                          + f"; weighted sum of squares {fit['chi_square']:.0f}" + ends,
                           flush=True)
             out["runs"][seed][_label(lag)] = figures
     if runs:

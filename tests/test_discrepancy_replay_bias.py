@@ -87,12 +87,45 @@ def test_the_factor_is_put_beside_the_blind_run_of_its_seed_and_ranked_with_it(t
     assert beside_blind_runs({0: 1.1, 1: 1.2}, runs)["spearman"] is None
 
 
+def test_the_starting_base_is_the_blind_starting_model_weighed_by_its_own_residual():
+    from simulation.discrepancy.fitting import residual
+    from simulation.discrepancy.replay import RavenModel
+    from studies.common.discrepancy_runs import STARTING_STRUCTURE
+    from studies.discrepancy_replay_bias import fitted_candidate
+
+    record = generated(3, 30.0, None, starting=True)
+    model, weights = record.starting
+    assert set(model.enabled_effects) == set(STARTING_STRUCTURE) and "hysteresis" not in model.enabled_effects
+    joints = record.signals.truth[record.split.fit] - model.replay(record.signals, record.robot).joints[record.split.fit]
+    # the fit part's offsets are in the model (to what the first state's shift with them leaves), and
+    # each joint weighs by its residual's spread (floor 0.001 deg, mm)
+    assert np.all(np.abs(joints.mean(axis=0)) < 0.01 * joints.std(axis=0))
+    floor = np.array([np.radians(1e-3), np.radians(1e-3), 1e-6])
+    np.testing.assert_allclose(weights.joints, np.maximum(joints.std(axis=0), floor), rtol=1e-9)
+    fit = fitted_candidate(record, 3, "fitted", "starting")
+    values = {k: np.asarray(v) for k, v in fit["values"].items()}
+    assert set(values) == {"stiffness", "width", "shape", "response_time"}
+    from simulation.model.effects import Hysteresis
+
+    rebuilt = dataclasses.replace(model.with_effect(Hysteresis(
+        stiffness=values["stiffness"], beta=1.0 / values["width"], gamma=values["shape"] / values["width"],
+        response_time=values["response_time"])), follows_hysteresis_lag=True)
+    assert isinstance(rebuilt, RavenModel)
+    # the reported sum of squares is the fitted model's, offsets fitted on the fit part
+    assert fit["chi_square"] == pytest.approx(residual(rebuilt, record.signals, record.robot,
+                                                       mask=record.split.fit).chi_square(weights), rel=1e-9)
+    without = generated(3, 30.0, None)
+    with pytest.raises(ValueError, match="holds no starting model"):
+        fitted_candidate(without, 3, "none", "starting")
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--response-times", "default,0,0"], "a response time is given twice in 'default,0,0'"),
     (["--response-times", "2"], "'2' is not 'default' or a response time: must be between 0 and 1 s, got 2"),
     (["--seeds", "0"], "--seeds"),
     (["--fit-iterations", "0"], "--fit-iterations"),
     (["--fit-lag"], "--fit-lag goes with --fit"),
+    (["--on-starting-base"], "--on-starting-base goes with --fit"),
 ])
 def test_bad_options_are_refused_in_one_line(argv, message, capsys):
     with pytest.raises(SystemExit) as exit_info:
