@@ -215,12 +215,12 @@ def fitted_candidate(record: Record, max_iter: int, lag: str = "none", base: str
     lag, which only a plant replay reads, is replaced in the last two."""
     from dataclasses import replace
 
-    from simulation.discrepancy.candidates import ParameterBlock
     from simulation.discrepancy.fitting import fit_candidate
     from simulation.discrepancy.replay import RavenModel
     from simulation.discrepancy.workflow import values_at_bounds
     from studies.common.discrepancy_runs import raven_library
     from studies.discrepancy_hysteresis_amplitude import hysteretic_amplitude
+    from studies.discrepancy_hysteresis_shape import REPLAY_LAG
 
     if lag not in FIT_LAGS:
         raise ValueError(f"lag must be one of {', '.join(FIT_LAGS)}, got {lag!r}")
@@ -239,8 +239,7 @@ def fitted_candidate(record: Record, max_iter: int, lag: str = "none", base: str
                              else record.generator.effect("hysteresis").response_time)
             return built.with_effect(built.params.effect("hysteresis").replace(response_time=response_time))
 
-        blocks = candidate.blocks + ((ParameterBlock("response_time", 3, 0.0, 0.5, 0.1, 0.1, "s"),)
-                                     if lag == "fitted" else ())
+        blocks = candidate.blocks + ((REPLAY_LAG,) if lag == "fitted" else ())
         candidate = replace(candidate, build=with_lag, blocks=blocks)
     if base == "starting":
         model, weights = record.starting
