@@ -82,7 +82,7 @@ round 0.1 s (the candidate's constant), within 0 to 0.5 s, as ``studies/discrepa
 --fit-lag`` fits it on the generator's base."""
 
 
-def _fitting_its_lag(candidate):
+def fitting_its_lag(candidate):
     """The hysteresis ``candidate`` with a response time per joint fitted with it (:data:`REPLAY_LAG`),
     building models whose quasi-static replay follows that lag
     (:attr:`~simulation.discrepancy.replay.RavenModel.follows_hysteresis_lag`)."""
@@ -116,7 +116,7 @@ def hysteresis_candidate(shape: float | None, lag: float | None, fit_lag: bool =
                                for b in candidate.blocks)
                 candidate = replace(candidate, blocks=blocks)
             if candidate.name == "hysteresis" and fit_lag:
-                candidate = _fitting_its_lag(candidate)
+                candidate = fitting_its_lag(candidate)
             out.append(candidate)
         return out
 

@@ -220,7 +220,7 @@ def fitted_candidate(record: Record, max_iter: int, lag: str = "none", base: str
     from simulation.discrepancy.workflow import values_at_bounds
     from studies.common.discrepancy_runs import raven_library
     from studies.discrepancy_hysteresis_amplitude import hysteretic_amplitude
-    from studies.discrepancy_hysteresis_shape import REPLAY_LAG
+    from studies.discrepancy_hysteresis_shape import fitting_its_lag
 
     if lag not in FIT_LAGS:
         raise ValueError(f"lag must be one of {', '.join(FIT_LAGS)}, got {lag!r}")
@@ -229,18 +229,17 @@ def fitted_candidate(record: Record, max_iter: int, lag: str = "none", base: str
     if base == "starting" and record.starting is None:
         raise ValueError("the record holds no starting model: generate it with starting=True")
     (candidate,) = raven_library(record.signals, ("hysteresis",))
-    follows_lag = lag != "none"
-    if follows_lag:
-        own = candidate.build
+    if lag == "fitted":
+        candidate = fitting_its_lag(candidate)
+    elif lag == "generator's":
+        own, generators = candidate.build, record.generator.effect("hysteresis").response_time
 
         def with_lag(model, values):
             built = own(model, values)
-            response_time = (values["response_time"] if lag == "fitted"
-                             else record.generator.effect("hysteresis").response_time)
-            return built.with_effect(built.params.effect("hysteresis").replace(response_time=response_time))
+            return built.with_effect(built.params.effect("hysteresis").replace(response_time=generators))
 
-        blocks = candidate.blocks + ((REPLAY_LAG,) if lag == "fitted" else ())
-        candidate = replace(candidate, build=with_lag, blocks=blocks)
+        candidate = replace(candidate, build=with_lag)
+    follows_lag = lag != "none"
     if base == "starting":
         model, weights = record.starting
         model = replace(model, follows_hysteresis_lag=follows_lag)
