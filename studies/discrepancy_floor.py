@@ -97,6 +97,7 @@ from __future__ import annotations
 
 import sys
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -209,6 +210,37 @@ def motor_side_acceleration(signals, coupling: np.ndarray) -> np.ndarray:
     causal like the replay's own estimate: the links' acceleration up to that of the cables'
     stretch, from the motor encoders, whose errors are not the ground truth's."""
     return signals.drive_acceleration @ np.asarray(coupling, dtype=float).T
+
+
+def with_motor_side_loads(signals):
+    """``signals`` whose replay takes the links' inertial loads from :func:`motor_side_acceleration`
+    through the arm's nominal coupling (a round number of the model, nothing of the generator)."""
+    from simulation.model.constants import RavenConstants
+
+    coupling = RavenConstants(arm=signals.arm).nominal_coupling()
+    return signals.with_derivatives(acceleration=motor_side_acceleration(signals, coupling))
+
+
+@contextmanager
+def motor_side_loads_throughout():
+    """Within the block, every RAVEN-II record the study helpers read
+    (:mod:`studies.common.discrepancy_runs`: the blind analysis, the oracle, the floor's starting
+    model) is replayed with the links' inertial loads from the motors (:func:`with_motor_side_loads`).
+    The identification reads the dataset as always, and the plant replay takes no acceleration."""
+    from studies.common import discrepancy_runs
+
+    own = discrepancy_runs.MeasuredSignals
+
+    class MotorSide(own):
+        @classmethod
+        def from_dataset(cls, dataset, constants=None):
+            return with_motor_side_loads(own.from_dataset(dataset, constants))
+
+    discrepancy_runs.MeasuredSignals = MotorSide
+    try:
+        yield
+    finally:
+        discrepancy_runs.MeasuredSignals = own
 
 
 def _identification_derivatives(values: np.ndarray, time: np.ndarray) -> np.ndarray:
@@ -699,18 +731,12 @@ def analyse_both(effect: str, seed: int, duration: float, size_factor: float = 1
     the shrink, and the floor bound that replay's floor sets (the same seed's record with nothing
     hidden, replayed alike)."""
     from simulation.discrepancy.signals import RAVEN_UNITS
-    from simulation.model.constants import RavenConstants
     from studies.common.discrepancy_runs import floor_bound, held_out_gap, run_on_raven_dataset, starting_model_on
 
     dataset, _ = generated_record((effect,), seed, duration, size_factor)
     nothing, _ = generated_record((), seed, duration)
-    coupling = RavenConstants(arm=dataset.arm).nominal_coupling()
-
-    def motor_side(signals):
-        return signals.with_derivatives(acceleration=motor_side_acceleration(signals, coupling))
-
     out = {}
-    for name, transform in (("the workflow's replay", None), ("motor-side inertial loads", motor_side)):
+    for name, transform in (("the workflow's replay", None), ("motor-side inertial loads", with_motor_side_loads)):
         result, _, _ = run_on_raven_dataset(dataset, replay_signals=transform)
         signals, split, robot, model = starting_model_on(nothing)
         floor = held_out_gap(model, signals if transform is None else transform(signals), split, robot)

@@ -35,6 +35,12 @@ fitted the lag by default, except that the candidate's constant is now a round 0
     oracle: whether a workflow that fits the lag it replays closes more of the gap. The plant
     replay that scores the final models takes those lags, or fits its own with ``--fit-scorer-lag``
     (not with ``--scorer-lag``).
+``--motor-side-loads``
+    The quasi-static replay takes the links' inertial loads from the motors' acceleration through
+    the nominal coupling (``studies/discrepancy_floor.py``'s ``with_motor_side_loads``, causal too)
+    instead of from the measured joints, in the blind analysis, the oracle and the quasi-static
+    floor: whether a replay with that lower floor, whose fits the plant then scores, closes more.
+    The plant replay takes no acceleration, so its floor bound is the same.
 
 ``--backfit-patience N`` passes the command's option of that name to the blind analysis (and so
 to the oracle). None of these changes the analysis's code path: the record reaches it as a file.
@@ -46,19 +52,20 @@ candidate's 0.1 s, the generator's 0.05 s); with ``--fit-scorer-lag`` alone, the
     python studies/discrepancy_hysteresis_shape.py --seed 97 --response-time 0.2 --fit-scorer-lag --out DIR
     python studies/discrepancy_hysteresis_shape.py --seed 97 --pin-shape 0.4 --out DIR
     python studies/discrepancy_hysteresis_shape.py --seed 124 --fit-replay-lag --fit-scorer-lag --out DIR
+    python studies/discrepancy_hysteresis_shape.py --seed 124 --motor-side-loads --fit-scorer-lag --out DIR
 
 It prints the named effects, the fitted shape, stiffness and width beside the generator's, the
 first iteration's fit-part gap and BIC, and the shrink (plant and quasi-static) beside the plant
 floor's bound; ``DIR/report.json`` is the command's report with ``response_time_s``,
 ``scorer_lag_s`` (the fitted lag with ``--fit-scorer-lag``, the replay's per joint with
-``--fit-replay-lag`` alone), ``scorer_lag_fitted``, ``replay_lag_fitted`` and ``pinned_shape`` added.
+``--fit-replay-lag`` alone), ``scorer_lag_fitted``, ``replay_lag_fitted``, ``motor_side_loads`` and ``pinned_shape`` added.
 """
 
 from __future__ import annotations
 
 import json
 import sys
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import replace
 from pathlib import Path
 
@@ -164,6 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     from studies.common.discrepancy_report import add_generator_knowledge
     from studies.common.discrepancy_runs import generate_measured, write_measured
     from studies.discrepancy import analyse
+    from studies.discrepancy_floor import motor_side_loads_throughout
 
     parser = script_parser(STUDY, __doc__)
     parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the generated data (>= 0)")
@@ -184,6 +192,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fit-replay-lag", action="store_true",
                         help="the candidate fits a response time per joint (0 to 0.5 s, from 0.1 s) that the "
                              "quasi-static replay's Bouc-Wen state follows, in the blind analysis and the oracle")
+    parser.add_argument("--motor-side-loads", action="store_true",
+                        help="the quasi-static replay's inertial loads from the motors' acceleration, in the blind "
+                             "analysis, the oracle and the quasi-static floor")
     parser.add_argument("--backfit-patience", type=non_negative_int, default=None, metavar="N",
                         help="the command's --backfit-patience (without it, the workflow's default)")
     parser.add_argument("--out", type=Path, default=Path("results") / STUDY)
@@ -197,7 +208,10 @@ def main(argv: list[str] | None = None) -> int:
         del dataset
         scorer_lag = (None if args.fit_scorer_lag or args.fit_replay_lag
                       else args.response_time if args.scorer_lag is None else args.scorer_lag)
-        with hysteresis_candidate(args.pin_shape, scorer_lag, fit_lag=args.fit_replay_lag):
+        with ExitStack() as changes:
+            changes.enter_context(hysteresis_candidate(args.pin_shape, scorer_lag, fit_lag=args.fit_replay_lag))
+            if args.motor_side_loads:
+                changes.enter_context(motor_side_loads_throughout())
             result, signals, split, plant, _ = analyse(path, study.folder, shown_path=study.final(path),
                                                        backfit_patience=args.backfit_patience,
                                                        fit_plant_lag=args.fit_scorer_lag)
@@ -215,6 +229,7 @@ def main(argv: list[str] | None = None) -> int:
             report["scorer_lag_s"] = float(candidates.HYSTERESIS_RESPONSE_TIME if scorer_lag is None else scorer_lag)
         report["scorer_lag_fitted"] = bool(args.fit_scorer_lag)
         report["replay_lag_fitted"] = bool(args.fit_replay_lag)
+        report["motor_side_loads"] = bool(args.motor_side_loads)
         report["pinned_shape"] = args.pin_shape
         report_path.write_text(json.dumps(report, indent=1))
         study.publish()
@@ -227,7 +242,8 @@ def main(argv: list[str] | None = None) -> int:
     else:
         scorer = f"{scorer:.3g} s" + (", fitted" if args.fit_scorer_lag else "")
     print(f"response time {report['response_time_s']:g} s (scorer's {scorer}); shape "
-          + ("fitted" if args.pin_shape is None else f"pinned at {args.pin_shape:g}"))
+          + ("fitted" if args.pin_shape is None else f"pinned at {args.pin_shape:g}")
+          + ("; inertial loads from the motors" if args.motor_side_loads else ""))
     print(f"named: {', '.join(s['named_effects']) or 'nothing'}")
     if s["fitted"] is not None:
         for name in ("shape", "stiffness", "width"):
