@@ -19,9 +19,14 @@ from studies.common.discrepancy_runs import generate_measured, generator_paramet
 
 
 @pytest.fixture(scope="module")
-def record():
+def dataset():
     """20 s of random motion of the starting structure, re-homed once (a hidden per-homing offset)."""
-    dataset, _ = generate_measured(("homing_offset",), seed=5, duration=20.0)
+    return generate_measured(("homing_offset",), seed=5, duration=20.0)[0]
+
+
+@pytest.fixture(scope="module")
+def record(dataset):
+    """The signals of :func:`dataset`, the starting structure at the generator's values and the arm."""
     signals = MeasuredSignals.from_dataset(dataset)
     model = RavenModel(generator_parameters(()), np.zeros(3))
     return signals, model, RavenII(signals.arm, check_limits=False)
@@ -391,6 +396,8 @@ def test_column_means_are_numpys_to_the_last_bit_in_every_layout(layout):
     # a replay that fits its lag leaves the candidate's constant alone too
     (["--fit-replay-lag"], 0.05, 0.1, False),
     (["--fit-replay-lag", "--fit-scorer-lag", "--response-time", "0.2"], 0.2, 0.1, True),
+    # the motors' inertial loads change what the records are replayed with, not a lag
+    (["--motor-side-loads", "--fit-scorer-lag"], 0.05, 0.1, True),
 ])
 def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypatch, tmp_path, options,
                                                                         generator_lag, scorer_lag, fitted):
@@ -409,7 +416,8 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
         return None, params
 
     def analyse(path, folder, shown_path=None, backfit_patience=None, fit_plant_lag=False):
-        seen["analysed"] = (path.name, backfit_patience, candidates.HYSTERESIS_RESPONSE_TIME, fit_plant_lag)
+        seen["analysed"] = (path.name, backfit_patience, candidates.HYSTERESIS_RESPONSE_TIME, fit_plant_lag,
+                            runs.MeasuredSignals is not MeasuredSignals)
         raise ReachedTheAnalysis
 
     monkeypatch.setattr(runs, "generate_measured", generate)
@@ -420,8 +428,9 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
         study.main(["--seed", "5", *options, "--out", str(out)])
     patience = 2 if "--backfit-patience" in options else None
     assert seen == {"generated": (("hysteresis",), 5, [generator_lag] * 3),
-                    "analysed": ("measured.parquet", patience, scorer_lag, fitted)}
+                    "analysed": ("measured.parquet", patience, scorer_lag, fitted, "--motor-side-loads" in options)}
     assert candidates.HYSTERESIS_RESPONSE_TIME == 0.1
+    assert runs.MeasuredSignals is MeasuredSignals
     assert not out.exists()
 
 
@@ -504,3 +513,28 @@ def test_the_shape_study_holds_the_candidates_shape_and_lag_only_within_its_bloc
     assert candidates.HYSTERESIS_RESPONSE_TIME == 0.1
     _, _, built = fitted_shape_range_and_built()
     np.testing.assert_array_equal(built.response_time, 0.1)
+
+
+def test_the_motors_inertial_loads_reach_every_record_the_study_helpers_read_and_only_within_the_block(dataset,
+                                                                                                      record):
+    import studies.common.discrepancy_runs as runs
+    from simulation.model.constants import RavenConstants
+    from studies.discrepancy_floor import motor_side_loads_throughout
+
+    signals, model, robot = record
+    coupling = RavenConstants(arm=dataset.arm).nominal_coupling()
+    with motor_side_loads_throughout():
+        inside = runs.MeasuredSignals.from_dataset(dataset)
+    assert runs.MeasuredSignals is MeasuredSignals
+    # the links' acceleration is the motors' through the nominal coupling; the rest is the record's
+    np.testing.assert_allclose(inside.acceleration, signals.drive_acceleration @ coupling.T, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(inside.acceleration - signals.acceleration)) > 1e-3
+    for name in ("velocity", "truth", "time", "drive_acceleration"):
+        np.testing.assert_array_equal(getattr(inside, name), getattr(signals, name))
+    difference = model.replay(inside, robot).joints - model.replay(signals, robot).joints
+    assert np.max(np.abs(difference)) > 1e-7
+    with pytest.raises(RuntimeError, match="inside"):
+        with motor_side_loads_throughout():
+            raise RuntimeError("inside")
+    assert runs.MeasuredSignals is MeasuredSignals
+    assert np.array_equal(runs.MeasuredSignals.from_dataset(dataset).acceleration, signals.acceleration)
