@@ -538,3 +538,33 @@ def test_the_motors_inertial_loads_reach_every_record_the_study_helpers_read_and
             raise RuntimeError("inside")
     assert runs.MeasuredSignals is MeasuredSignals
     assert np.array_equal(runs.MeasuredSignals.from_dataset(dataset).acceleration, signals.acceleration)
+
+
+def test_the_motor_loads_study_runs_the_command_within_the_block_and_marks_its_report(monkeypatch, tmp_path):
+    import json
+
+    import studies.common.discrepancy_runs as runs
+    import studies.discrepancy as command
+    from studies import discrepancy_motor_loads as study
+
+    seen = {}
+
+    def run_command(argv):
+        seen["argv"] = argv
+        seen["motor_side"] = runs.MeasuredSignals is not MeasuredSignals
+        folder = tmp_path / "out"
+        folder.mkdir()
+        (folder / "report.json").write_text(json.dumps({"shrink": 0.5}))
+        (folder / "report.md").write_text("# Model discrepancy\n\nBlind analysis.\n")
+        return 0
+
+    monkeypatch.setattr(command, "main", run_command)
+    out = tmp_path / "out"
+    assert study.main(["--hidden-effect", "hysteresis", "--seed", "7", "--duration", "90",
+                       "--backfit-patience", "2", "--out", str(out)]) == 0
+    assert seen == {"argv": ["--hidden-effect", "hysteresis", "--seed", "7", "--duration", "90.0",
+                             "--size-factor", "1.0", "--out", str(out), "--no-progress", "--backfit-patience", "2"],
+                    "motor_side": True}
+    assert runs.MeasuredSignals is MeasuredSignals
+    assert json.loads((out / "report.json").read_text()) == {"shrink": 0.5, "motor_side_loads": True}
+    assert (out / "report.md").read_text() == f"# Model discrepancy\n\n{study.MARK}\n\nBlind analysis.\n"
