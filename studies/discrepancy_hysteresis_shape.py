@@ -40,7 +40,8 @@ fitted the lag by default, except that the candidate's constant is now a round 0
     the nominal coupling (``studies/discrepancy_floor.py``'s ``with_motor_side_loads``, causal too)
     instead of from the measured joints, in the blind analysis, the oracle and the quasi-static
     floor: whether a replay with that lower floor, whose fits the plant then scores, closes more.
-    The plant replay takes no acceleration, so its floor bound is the same.
+    The plant replay takes no acceleration, so its floor is the same (its bound moves only through
+    the starting model's offsets, which the replay fits).
 
 ``--backfit-patience N`` passes the command's option of that name to the blind analysis (and so
 to the oracle). None of these changes the analysis's code path: the record reaches it as a file.
