@@ -59,7 +59,8 @@ It prints the named effects, the fitted shape, stiffness and width beside the ge
 first iteration's fit-part gap and BIC, and the shrink (plant and quasi-static) beside the plant
 floor's bound; ``DIR/report.json`` is the command's report with ``response_time_s``,
 ``scorer_lag_s`` (the fitted lag with ``--fit-scorer-lag``, the replay's per joint with
-``--fit-replay-lag`` alone), ``scorer_lag_fitted``, ``replay_lag_fitted``, ``motor_side_loads`` and ``pinned_shape`` added.
+``--fit-replay-lag`` alone), ``scorer_lag_fitted``, ``replay_lag_fitted``, ``motor_side_loads`` and
+``pinned_shape`` added.
 """
 
 from __future__ import annotations
