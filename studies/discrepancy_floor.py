@@ -97,7 +97,7 @@ from __future__ import annotations
 
 import sys
 import tempfile
-from contextlib import contextmanager
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -221,26 +221,14 @@ def with_motor_side_loads(signals):
     return signals.with_derivatives(acceleration=motor_side_acceleration(signals, coupling))
 
 
-@contextmanager
 def motor_side_loads_throughout():
-    """Within the block, every RAVEN-II record the study helpers read
-    (:mod:`studies.common.discrepancy_runs`: the blind analysis, the oracle, the floor's starting
-    model) is replayed with the links' inertial loads from the motors (:func:`with_motor_side_loads`).
-    The identification reads the dataset as always, and the plant replay takes no acceleration."""
-    from studies.common import discrepancy_runs
+    """A block (:func:`studies.common.discrepancy_runs.replaying_with`) within which every RAVEN-II
+    record the study helpers replay (the blind analysis, the oracle, the floor's starting model) is
+    replayed with the links' inertial loads from the motors (:func:`with_motor_side_loads`). The
+    identification reads the dataset as always, and the plant replay takes no acceleration."""
+    from studies.common.discrepancy_runs import replaying_with
 
-    own = discrepancy_runs.MeasuredSignals
-
-    class MotorSide(own):
-        @classmethod
-        def from_dataset(cls, dataset, constants=None):
-            return with_motor_side_loads(own.from_dataset(dataset, constants))
-
-    discrepancy_runs.MeasuredSignals = MotorSide
-    try:
-        yield
-    finally:
-        discrepancy_runs.MeasuredSignals = own
+    return replaying_with(with_motor_side_loads)
 
 
 def _identification_derivatives(values: np.ndarray, time: np.ndarray) -> np.ndarray:
@@ -736,10 +724,12 @@ def analyse_both(effect: str, seed: int, duration: float, size_factor: float = 1
     dataset, _ = generated_record((effect,), seed, duration, size_factor)
     nothing, _ = generated_record((), seed, duration)
     out = {}
-    for name, transform in (("the workflow's replay", None), ("motor-side inertial loads", with_motor_side_loads)):
-        result, _, _ = run_on_raven_dataset(dataset, replay_signals=transform)
-        signals, split, robot, model = starting_model_on(nothing)
-        floor = held_out_gap(model, signals if transform is None else transform(signals), split, robot)
+    blocks = (("the workflow's replay", nullcontext), ("motor-side inertial loads", motor_side_loads_throughout))
+    for name, block in blocks:
+        with block():
+            result, _, _ = run_on_raven_dataset(dataset)
+            signals, split, robot, model = starting_model_on(nothing)
+        floor = held_out_gap(model, signals, split, robot)
         out[name] = {"named_effects": list(result.named_effects), "shrink": float(result.shrink),
                      "floor_bound": floor_bound(floor, result.gap_before, RAVEN_UNITS)}
     return out

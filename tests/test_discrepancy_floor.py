@@ -165,25 +165,57 @@ def test_the_dynamic_oracle_fits_backlash_within_its_range_and_refuses_what_it_c
     assert fitted["shrink"] == pytest.approx(1 - pooled(fitted["gap_after"]) / pooled(fitted["gap_before"]))
 
 
-def test_a_diagnostic_replay_receives_the_records_signals_before_any_identification():
+def test_a_diagnostic_replay_reaches_the_analysis_the_oracle_and_the_starting_model_before_any_identification(
+        tmp_path):
     from simulation.discrepancy import MeasuredSignals
-    from studies.common.discrepancy_runs import generate_measured, run_on_raven_dataset
+    from studies.common.discrepancy_runs import (generate_measured, oracle, replay_transform, replaying_with,
+                                                 run_on_raven_dataset, starting_model_on, write_measured)
 
     class Seen(Exception):
         pass
 
     dataset, _ = generate_measured((), seed=2, duration=20.0)
+    path = write_measured(dataset, tmp_path)
     received = []
 
     def transform(signals):
         received.append(signals)
         raise Seen
 
-    with pytest.raises(Seen):
-        run_on_raven_dataset(dataset, replay_signals=transform)
-    (signals,) = received
-    assert isinstance(signals, MeasuredSignals) and len(signals) == len(dataset.time)
-    np.testing.assert_array_equal(signals.truth, dataset.targets)
+    with replaying_with(transform):
+        assert replay_transform() is transform
+        for helper, argument in ((run_on_raven_dataset, dataset), (starting_model_on, dataset),
+                                 (lambda p: oracle(p, ("backlash",)), path)):
+            with pytest.raises(Seen):
+                helper(argument)
+    assert replay_transform() is None
+    assert len(received) == 3
+    for signals in received:
+        assert isinstance(signals, MeasuredSignals) and len(signals) == len(dataset.time)
+        np.testing.assert_array_equal(signals.truth, received[0].truth)
+    np.testing.assert_array_equal(received[0].truth, dataset.targets)
+
+
+def test_replay_blocks_nest_end_on_an_error_and_refuse_a_transform_that_is_not_callable():
+    from studies.common.discrepancy_runs import replay_transform, replaying_with
+
+    def outer(signals):
+        return signals
+
+    def inner(signals):
+        return signals
+
+    with replaying_with(outer):
+        with pytest.raises(RuntimeError, match="inside"):
+            with replaying_with(inner):
+                assert replay_transform() is inner
+                raise RuntimeError("inside")
+        assert replay_transform() is outer
+    assert replay_transform() is None
+    with pytest.raises(TypeError, match="the replay's transform must be callable, not str"):
+        with replaying_with("acceleration"):
+            pass
+    assert replay_transform() is None
 
 
 def stand_in_for_the_analysis(monkeypatch, named, models):

@@ -405,6 +405,7 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
     import studies.discrepancy as command
     from simulation.discrepancy import candidates
     from studies import discrepancy_hysteresis_shape as study
+    from studies.discrepancy_floor import with_motor_side_loads
 
     class ReachedTheAnalysis(Exception):
         pass
@@ -417,7 +418,7 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
 
     def analyse(path, folder, shown_path=None, backfit_patience=None, fit_plant_lag=False):
         seen["analysed"] = (path.name, backfit_patience, candidates.HYSTERESIS_RESPONSE_TIME, fit_plant_lag,
-                            runs.MeasuredSignals is not MeasuredSignals)
+                            runs.replay_transform() is with_motor_side_loads)
         raise ReachedTheAnalysis
 
     monkeypatch.setattr(runs, "generate_measured", generate)
@@ -430,7 +431,7 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
     assert seen == {"generated": (("hysteresis",), 5, [generator_lag] * 3),
                     "analysed": ("measured.parquet", patience, scorer_lag, fitted, "--motor-side-loads" in options)}
     assert candidates.HYSTERESIS_RESPONSE_TIME == 0.1
-    assert runs.MeasuredSignals is MeasuredSignals
+    assert runs.replay_transform() is None
     assert not out.exists()
 
 
@@ -519,13 +520,14 @@ def test_the_motors_inertial_loads_reach_every_record_the_study_helpers_read_and
                                                                                                       record):
     import studies.common.discrepancy_runs as runs
     from simulation.model.constants import RavenConstants
-    from studies.discrepancy_floor import motor_side_loads_throughout
+    from studies.discrepancy_floor import motor_side_loads_throughout, with_motor_side_loads
 
     signals, model, robot = record
     coupling = RavenConstants(arm=dataset.arm).nominal_coupling()
     with motor_side_loads_throughout():
-        inside = runs.MeasuredSignals.from_dataset(dataset)
-    assert runs.MeasuredSignals is MeasuredSignals
+        assert runs.replay_transform() is with_motor_side_loads
+        inside = runs.replayed_signals(dataset)
+    assert runs.replay_transform() is None
     # the links' acceleration is the motors' through the nominal coupling; the rest is the record's
     np.testing.assert_allclose(inside.acceleration, signals.drive_acceleration @ coupling.T, rtol=1e-12, atol=1e-12)
     assert np.max(np.abs(inside.acceleration - signals.acceleration)) > 1e-3
@@ -536,8 +538,8 @@ def test_the_motors_inertial_loads_reach_every_record_the_study_helpers_read_and
     with pytest.raises(RuntimeError, match="inside"):
         with motor_side_loads_throughout():
             raise RuntimeError("inside")
-    assert runs.MeasuredSignals is MeasuredSignals
-    assert np.array_equal(runs.MeasuredSignals.from_dataset(dataset).acceleration, signals.acceleration)
+    assert runs.replay_transform() is None
+    assert np.array_equal(runs.replayed_signals(dataset).acceleration, signals.acceleration)
 
 
 def test_the_motor_loads_study_runs_the_command_within_the_block_and_marks_its_report(monkeypatch, tmp_path):
@@ -546,12 +548,13 @@ def test_the_motor_loads_study_runs_the_command_within_the_block_and_marks_its_r
     import studies.common.discrepancy_runs as runs
     import studies.discrepancy as command
     from studies import discrepancy_motor_loads as study
+    from studies.discrepancy_floor import with_motor_side_loads
 
     seen = {}
 
     def run_command(argv):
         seen["argv"] = argv
-        seen["motor_side"] = runs.MeasuredSignals is not MeasuredSignals
+        seen["motor_side"] = runs.replay_transform() is with_motor_side_loads
         folder = tmp_path / "out"
         folder.mkdir()
         (folder / "report.json").write_text(json.dumps({"shrink": 0.5}))
@@ -565,6 +568,6 @@ def test_the_motor_loads_study_runs_the_command_within_the_block_and_marks_its_r
     assert seen == {"argv": ["--hidden-effect", "hysteresis", "--seed", "7", "--duration", "90.0",
                              "--size-factor", "1.0", "--out", str(out), "--no-progress", "--backfit-patience", "2"],
                     "motor_side": True}
-    assert runs.MeasuredSignals is MeasuredSignals
+    assert runs.replay_transform() is None
     assert json.loads((out / "report.json").read_text()) == {"shrink": 0.5, "motor_side_loads": True}
     assert (out / "report.md").read_text() == f"# Model discrepancy\n\n{study.MARK}\n\nBlind analysis.\n"

@@ -13,9 +13,12 @@ whatever the data. Only a study that generated the data then adds what it knows
 
 from __future__ import annotations
 
-import numpy as np
-
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
+
+import numpy as np
 
 from simulation.model.parameters import RavenParameters
 
@@ -276,18 +279,49 @@ def check_analysable(dataset) -> None:
                          f"here), and it cannot be: {error}") from error
 
 
-def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: WorkflowSettings = WorkflowSettings(),
-                         fractions=SPLIT_FRACTIONS, exclude=(), candidates=LIBRARY, progress: bool = False,
-                         replay_signals=None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
-    """The workflow on a RAVEN-II dataset: split in time, identify ``structure`` on the fit part,
-    screen the ``candidates`` (effect names); ``progress`` shows the candidate fits on stderr.
+_REPLAY_TRANSFORM: ContextVar[Callable[[MeasuredSignals], MeasuredSignals] | None] = ContextVar(
+    "replay_transform", default=None)
 
-    ``replay_signals`` (diagnostics only; the blind analysis never passes it) maps the record's
-    :class:`MeasuredSignals` to those the replay runs on, e.g. with other derivatives
-    (:meth:`MeasuredSignals.with_derivatives`); the identification reads the dataset as always."""
+
+@contextmanager
+def replaying_with(transform: Callable[[MeasuredSignals], MeasuredSignals]) -> Iterator[None]:
+    """Within the block, every RAVEN-II record these helpers replay (the blind analysis, the oracle,
+    the starting model of :func:`starting_model_on` and of the floor) is replayed on
+    ``transform(signals)`` instead of the record's own :class:`MeasuredSignals`, e.g. with other
+    derivatives (:meth:`MeasuredSignals.with_derivatives`).
+
+    For diagnostic studies only: the command never enters such a block. The identification reads
+    the dataset as always. Blocks nest; the outer transform is back when an inner block ends,
+    whether it ends normally or by an error."""
+    if not callable(transform):
+        raise TypeError(f"the replay's transform must be callable, not {type(transform).__name__}")
+    token = _REPLAY_TRANSFORM.set(transform)
+    try:
+        yield
+    finally:
+        _REPLAY_TRANSFORM.reset(token)
+
+
+def replay_transform() -> Callable[[MeasuredSignals], MeasuredSignals] | None:
+    """The transform of the innermost :func:`replaying_with` block around the caller, None outside."""
+    return _REPLAY_TRANSFORM.get()
+
+
+def replayed_signals(dataset) -> MeasuredSignals:
+    """The signals the workflow replays for a RAVEN-II ``dataset``: the record's own, transformed
+    within a :func:`replaying_with` block."""
     signals = MeasuredSignals.from_dataset(dataset)
-    if replay_signals is not None:
-        signals = replay_signals(signals)
+    transform = _REPLAY_TRANSFORM.get()
+    return signals if transform is None else transform(signals)
+
+
+def run_on_raven_dataset(dataset, structure=STARTING_STRUCTURE, settings: WorkflowSettings = WorkflowSettings(),
+                         fractions=SPLIT_FRACTIONS, exclude=(), candidates=LIBRARY,
+                         progress: bool = False) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+    """The workflow on a RAVEN-II dataset: split in time, identify ``structure`` on the fit part,
+    screen the ``candidates`` (effect names); ``progress`` shows the candidate fits on stderr. The
+    replay runs on :func:`replayed_signals`."""
+    signals = replayed_signals(dataset)
     split = Split.by_time(signals, fractions)
     base = raven_base_identifier(dataset, split.fit, structure)
     model = base.identify(tuple(structure), None)
@@ -540,7 +574,7 @@ def starting_model_on(dataset):
     then fits the offsets on the fit part too, as :func:`held_out_gap` does)."""
     from kinematics import RavenII
 
-    signals = MeasuredSignals.from_dataset(dataset)
+    signals = replayed_signals(dataset)
     split = Split.by_time(signals)
     model = raven_base_identifier(dataset, split.fit).identify(STARTING_STRUCTURE, None)
     return signals, split, RavenII(signals.arm, check_limits=False), model
@@ -612,7 +646,7 @@ def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rou
     """
     hidden = check_hidden(hidden)
     dataset = read_measured(path)
-    signals = MeasuredSignals.from_dataset(dataset)
+    signals = replayed_signals(dataset)
     split = Split.by_time(signals)
     base = raven_base_identifier(dataset, split.fit, STARTING_STRUCTURE)
     model = base.identify(STARTING_STRUCTURE, None)
