@@ -90,6 +90,7 @@ from studies.common.discrepancy_runs import (
     ABLATION_CHOICES,
     DEFAULT_RECORD_S,
     HIDDEN_CHOICES,
+    INERTIAL_LOADS,
     STARTING_STRUCTURE,
     analyse_measured,
     analysed_rows,
@@ -98,6 +99,7 @@ from studies.common.discrepancy_runs import (
     drift_record_note,
     generate_measured,
     hidden_effects,
+    inertial_loads_from,
     learned_calibrators_on_dvrk,
     log_rate_options,
     read_flagged,
@@ -160,7 +162,7 @@ def joint_numbers(text: str) -> tuple[int, ...]:
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
             progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None,
             max_effects: int | None = None, plant_refit: bool = False, backfit_patience: int | None = None,
-            fit_plant_lag: bool = True):
+            fit_plant_lag: bool = True, inertial_loads: str = "joints"):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     The analysis's last step scores its starting and final models with the plant replay where that
@@ -176,10 +178,19 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     ``arm`` is for bags and CSV files (a Parquet dataset file records its own); ``max_rate`` (Hz)
     thins a faster log first; ``backfit_rounds`` caps the backfit's rounds, ``max_effects`` the
     effects named and ``backfit_patience`` the backfit's rounds in a row that may fail to lower the
-    residual, instead of the workflow's defaults. The analysis reads ``path`` and nothing else
+    residual, instead of the workflow's defaults; ``inertial_loads`` (one of
+    :data:`~studies.common.discrepancy_runs.INERTIAL_LOADS`) is where the replay takes the links'
+    inertial loads from. The analysis reads ``path`` and nothing else
     (:func:`~studies.common.discrepancy_runs.analyse_measured`); the report's source counts the rows
     it left out for holding impossible values.
     """
+    with inertial_loads_from(inertial_loads):
+        return _analyse(path, out, runtime_s, shown_path, arm, progress, max_rate, backfit_rounds, max_effects,
+                        plant_refit, backfit_patience, fit_plant_lag, inertial_loads)
+
+
+def _analyse(path, out, runtime_s, shown_path, arm, progress, max_rate, backfit_rounds, max_effects, plant_refit,
+             backfit_patience, fit_plant_lag, inertial_loads):
     import time
 
     clock = time.perf_counter()
@@ -210,13 +221,13 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
             say("refitting the named effects with the plant replay...")
         refit = refit_with_plant(result, signals, split, plant)
     write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s,
-                 plant=plant, plant_refit=refit)
+                 plant=plant, plant_refit=refit, inertial_loads=inertial_loads)
     return result, signals, split, plant, refit
 
 
 OPTION_DEFAULTS = {"seed": 0, "seeds": 3, "duration": DEFAULT_RECORD_S, "size_factor": 1.0,
                    "joints": (4, 5, 6), "arm": "left", "log_rate": LOG_RATE, "plant_refit": False,
-                   "fit_plant_lag": False, "fixed_plant_lag": False}
+                   "fit_plant_lag": False, "fixed_plant_lag": False, "inertial_loads": "joints"}
 """Values of the options that apply to some inputs only, when not given (their parser default is
 None, so that a given option can be told from an absent one)."""
 
@@ -239,6 +250,7 @@ def options_that_apply(args) -> dict[str, tuple[bool, str]]:
         "fit_plant_lag": plant_scored,
         "fixed_plant_lag": plant_scored,
         "backfit_patience": analysed_blind,
+        "inertial_loads": analysed_blind,
         "seed": (generated, "generated data (--hidden-effect, --ablate, --sweep): measured data carry no seed"),
         "seeds": (args.sweep, "--sweep only"),
         "duration": (generated, "generated data (--hidden-effect, --ablate, --sweep) only"),
@@ -307,6 +319,11 @@ def main(argv=None) -> int:
     lag.add_argument("--fit-plant-lag", action="store_true", default=None,
                      help="the default, kept so that earlier commands run: fit the lag of a named hysteresis to the "
                           "plant")
+    parser.add_argument("--inertial-loads", choices=INERTIAL_LOADS, default=None,
+                        help="--measured RAVEN-II data and --hidden-effect only: where the replay takes the links' "
+                             "inertial loads from: 'joints' (the default), a causal second derivative of the measured "
+                             "joints; 'motors', the motors' acceleration through the arm's nominal coupling (with "
+                             "--hidden-effect the oracle and the floor get the same)")
     parser.add_argument("--effects", type=parse_effect_list, default=None, metavar="NAMES",
                         help="--sweep only these hidden effects (comma-separated; default: every choice)")
     parser.add_argument("--joints", type=joint_numbers, default=None,
@@ -345,16 +362,19 @@ def main(argv=None) -> int:
                                                            progress=progress, backfit_rounds=args.backfit_rounds,
                                                            max_effects=args.max_effects, plant_refit=args.plant_refit,
                                                            backfit_patience=args.backfit_patience,
-                                                           fit_plant_lag=not args.fixed_plant_lag)
-            add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path, result,
-                                    args.size_factor, args.log_rate, plant, signals, split)
+                                                           fit_plant_lag=not args.fixed_plant_lag,
+                                                           inertial_loads=args.inertial_loads)
+            with inertial_loads_from(args.inertial_loads):
+                add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path,
+                                        result, args.size_factor, args.log_rate, plant, signals, split)
         elif args.ablate is not None:
             result, signals, split, generator = run_ablation(args.ablate, seed=args.seed, duration=args.duration,
                                                              folder=study.folder)
             source = {"kind": "simulated", "ablated": args.ablate, "seed": args.seed, "duration_s": args.duration,
                       "description": f"ablation of {args.ablate} on the virtual RAVEN-II"}
             structure = tuple(e for e in STARTING_STRUCTURE if e != args.ablate)
-            write_report(result, signals, split, source, study.folder, study.stop_clock(), structure, "ablation")
+            write_report(result, signals, split, source, study.folder, study.stop_clock(), structure, "ablation",
+                         inertial_loads="joints")
         elif is_dvrk_folder(args.measured):
             joints = tuple(j - 1 for j in args.joints)
             root = args.measured.parent if (args.measured / "q_des.npy").exists() else args.measured
@@ -385,7 +405,8 @@ def main(argv=None) -> int:
                                                                max_effects=args.max_effects,
                                                                plant_refit=args.plant_refit,
                                                                backfit_patience=args.backfit_patience,
-                                                               fit_plant_lag=not args.fixed_plant_lag)
+                                                               fit_plant_lag=not args.fixed_plant_lag,
+                                                               inertial_loads=args.inertial_loads)
             except NotIdentifiableError as error:
                 raise UsageError(f"{args.measured} cannot be analysed: {one_line(error)}") from error
         study.publish()

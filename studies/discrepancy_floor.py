@@ -97,12 +97,11 @@ from __future__ import annotations
 
 import sys
 import tempfile
-from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
 
-from studies.common.discrepancy_runs import DEFAULT_RECORD_S, record_length
+from studies.common.discrepancy_runs import DEFAULT_RECORD_S, motor_side_acceleration, record_length
 from studies.common.plant_scoring import (PLANT_FRICTION_EVALUATIONS, PLANT_REFIT_EVALUATIONS, plant_fit,
                                          plant_held_out_gap, with_plant_friction)
 from studies.common.reporting import write_json
@@ -203,32 +202,6 @@ def centred_acceleration(signals, skip_present: bool = False) -> np.ndarray:
 
     return per_homing(_centred, np.asarray(signals.truth, dtype=float), np.asarray(signals.time, dtype=float),
                       signals.homing, skip_present)
-
-
-def motor_side_acceleration(signals, coupling: np.ndarray) -> np.ndarray:
-    """The cable ends' acceleration ``A u''`` (``coupling`` A, (3, 3); ``u`` the motor coordinates),
-    causal like the replay's own estimate: the links' acceleration up to that of the cables'
-    stretch, from the motor encoders, whose errors are not the ground truth's."""
-    return signals.drive_acceleration @ np.asarray(coupling, dtype=float).T
-
-
-def with_motor_side_loads(signals):
-    """``signals`` whose replay takes the links' inertial loads from :func:`motor_side_acceleration`
-    through the arm's nominal coupling (a round number of the model, nothing of the generator)."""
-    from simulation.model.constants import RavenConstants
-
-    coupling = RavenConstants(arm=signals.arm).nominal_coupling()
-    return signals.with_derivatives(acceleration=motor_side_acceleration(signals, coupling))
-
-
-def motor_side_loads_throughout():
-    """A block (:func:`studies.common.discrepancy_runs.replaying_with`) within which every RAVEN-II
-    record the study helpers replay (the blind analysis, the oracle, the floor's starting model) is
-    replayed with the links' inertial loads from the motors (:func:`with_motor_side_loads`). The
-    identification reads the dataset as always, and the plant replay takes no acceleration."""
-    from studies.common.discrepancy_runs import replaying_with
-
-    return replaying_with(with_motor_side_loads)
 
 
 def _identification_derivatives(values: np.ndarray, time: np.ndarray) -> np.ndarray:
@@ -719,14 +692,14 @@ def analyse_both(effect: str, seed: int, duration: float, size_factor: float = 1
     the shrink, and the floor bound that replay's floor sets (the same seed's record with nothing
     hidden, replayed alike)."""
     from simulation.discrepancy.signals import RAVEN_UNITS
-    from studies.common.discrepancy_runs import floor_bound, held_out_gap, run_on_raven_dataset, starting_model_on
+    from studies.common.discrepancy_runs import (floor_bound, held_out_gap, inertial_loads_from, run_on_raven_dataset,
+                                                 starting_model_on)
 
     dataset, _ = generated_record((effect,), seed, duration, size_factor)
     nothing, _ = generated_record((), seed, duration)
     out = {}
-    blocks = (("the workflow's replay", nullcontext), ("motor-side inertial loads", motor_side_loads_throughout))
-    for name, block in blocks:
-        with block():
+    for name, loads in (("the workflow's replay", "joints"), ("motor-side inertial loads", "motors")):
+        with inertial_loads_from(loads):
             result, _, _ = run_on_raven_dataset(dataset)
             signals, split, robot, model = starting_model_on(nothing)
         floor = held_out_gap(model, signals, split, robot)

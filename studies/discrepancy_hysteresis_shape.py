@@ -37,11 +37,11 @@ fitted the lag by default, except that the candidate's constant is now a round 0
     (not with ``--scorer-lag``).
 ``--motor-side-loads``
     The quasi-static replay takes the links' inertial loads from the motors' acceleration through
-    the nominal coupling (``studies/discrepancy_floor.py``'s ``with_motor_side_loads``, causal too)
-    instead of from the measured joints, in the blind analysis, the oracle and the quasi-static
-    floor: whether a replay with that lower floor, whose fits the plant then scores, closes more.
-    The plant replay takes no acceleration, so its floor is the same (its bound moves only through
-    the starting model's offsets, which the replay fits).
+    the nominal coupling (the command's ``--inertial-loads motors``, causal too) instead of from the
+    measured joints, in the blind analysis, the oracle and the quasi-static floor: whether a
+    replay with that lower floor, whose fits the plant then scores, closes more. The plant replay
+    takes no acceleration, so its floor is the same (its bound moves only through the starting
+    model's offsets, which the replay fits).
 
 ``--backfit-patience N`` passes the command's option of that name to the blind analysis (and so
 to the oracle). None of these changes the analysis's code path: the record reaches it as a file.
@@ -171,9 +171,8 @@ def _values(values) -> str:
 def main(argv: list[str] | None = None) -> int:
     from simulation.discrepancy import candidates
     from studies.common.discrepancy_report import add_generator_knowledge
-    from studies.common.discrepancy_runs import generate_measured, write_measured
+    from studies.common.discrepancy_runs import generate_measured, inertial_loads_from, write_measured
     from studies.discrepancy import analyse
-    from studies.discrepancy_floor import motor_side_loads_throughout
 
     parser = script_parser(STUDY, __doc__)
     parser.add_argument("--seed", type=non_negative_int, default=0, help="seed of the generated data (>= 0)")
@@ -212,11 +211,11 @@ def main(argv: list[str] | None = None) -> int:
                       else args.response_time if args.scorer_lag is None else args.scorer_lag)
         with ExitStack() as changes:
             changes.enter_context(hysteresis_candidate(args.pin_shape, scorer_lag, fit_lag=args.fit_replay_lag))
-            if args.motor_side_loads:
-                changes.enter_context(motor_side_loads_throughout())
+            loads = "motors" if args.motor_side_loads else "joints"
+            changes.enter_context(inertial_loads_from(loads))
             result, signals, split, plant, _ = analyse(path, study.folder, shown_path=study.final(path),
                                                        backfit_patience=args.backfit_patience,
-                                                       fit_plant_lag=args.fit_scorer_lag)
+                                                       fit_plant_lag=args.fit_scorer_lag, inertial_loads=loads)
             add_generator_knowledge(study.folder, ("hysteresis",), args.seed, args.duration, generator, path,
                                     result, plant=plant, signals=signals, split=split)
         report_path = study.folder / "report.json"

@@ -346,6 +346,19 @@ def test_a_command_run_is_a_row_of_the_sweep_table_with_its_reports_figures(cli_
         main(["--merge-sweeps", str(cli_runs("none")), str(folder), "--out", str(tmp_path / "mixed")])
     assert "size factors [1.0, 12.5]" in capsys.readouterr().err
     assert not (tmp_path / "mixed").exists()
+    # a run replayed with the motors' inertial loads, or marked so by the study of before, is not a
+    # row of the same table as one replayed with the joints'
+    assert run["inertial_loads"] == report["inertial_loads"] == "joints"
+    for index, mark in enumerate(({"inertial_loads": "motors"}, {"inertial_loads": None, "motor_side_loads": True})):
+        other = tmp_path / f"other{index}" / "report.json"
+        other.parent.mkdir()
+        other.write_text(json.dumps({**report, "seed": report["seed"] + 1, **mark}))
+        capsys.readouterr()
+        with pytest.raises(SystemExit):
+            main(["--merge-sweeps", str(folder), str(other), "--out", str(tmp_path / f"loads{index}")])
+        assert "where the replay took the links' inertial loads from" in capsys.readouterr().err
+    assert main(["--merge-sweeps", str(other), "--out", str(tmp_path / "motors")]) == 0
+    assert "**Inertial loads from the motors:**" in (tmp_path / "motors" / "confusion.md").read_text()
 
 
 @pytest.mark.parametrize("name", ["coupling", "viscous_friction", "cable_stretch"])
@@ -513,6 +526,7 @@ def test_the_report_of_a_run_has_the_documented_keys(tmp_path):
     np.testing.assert_allclose(report["gap_before"], result.gap_before)
     assert report["shrink"] == pytest.approx(result.shrink)
     assert report["torque_gap_before"] is None and report["equivalent"] == {}
+    assert report["inertial_loads"] is None  # generic data: no RAVEN-II replay of inertial loads
     assert report["rivals"] == {k: dict(v) for k, v in result.rivals.items()}
     assert all(isinstance(it["rivals"], dict) for it in report["iterations"])
     assert len(report["residual_structure"]) == 2  # checked after the named effects too

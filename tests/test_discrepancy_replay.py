@@ -405,7 +405,7 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
     import studies.discrepancy as command
     from simulation.discrepancy import candidates
     from studies import discrepancy_hysteresis_shape as study
-    from studies.discrepancy_floor import with_motor_side_loads
+    from studies.common.discrepancy_runs import with_motor_side_loads
 
     class ReachedTheAnalysis(Exception):
         pass
@@ -416,9 +416,9 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
         seen["generated"] = (hidden, seed, params.effect("hysteresis").response_time.tolist())
         return None, params
 
-    def analyse(path, folder, shown_path=None, backfit_patience=None, fit_plant_lag=False):
+    def analyse(path, folder, shown_path=None, backfit_patience=None, fit_plant_lag=False, inertial_loads="joints"):
         seen["analysed"] = (path.name, backfit_patience, candidates.HYSTERESIS_RESPONSE_TIME, fit_plant_lag,
-                            runs.replay_transform() is with_motor_side_loads)
+                            runs.replay_transform() is with_motor_side_loads, inertial_loads)
         raise ReachedTheAnalysis
 
     monkeypatch.setattr(runs, "generate_measured", generate)
@@ -429,7 +429,8 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
         study.main(["--seed", "5", *options, "--out", str(out)])
     patience = 2 if "--backfit-patience" in options else None
     assert seen == {"generated": (("hysteresis",), 5, [generator_lag] * 3),
-                    "analysed": ("measured.parquet", patience, scorer_lag, fitted, "--motor-side-loads" in options)}
+                    "analysed": ("measured.parquet", patience, scorer_lag, fitted, "--motor-side-loads" in options,
+                                 "motors" if "--motor-side-loads" in options else "joints")}
     assert candidates.HYSTERESIS_RESPONSE_TIME == 0.1
     assert runs.replay_transform() is None
     assert not out.exists()
@@ -520,11 +521,13 @@ def test_the_motors_inertial_loads_reach_every_record_the_study_helpers_read_and
                                                                                                       record):
     import studies.common.discrepancy_runs as runs
     from simulation.model.constants import RavenConstants
-    from studies.discrepancy_floor import motor_side_loads_throughout, with_motor_side_loads
+    from studies.common.discrepancy_runs import inertial_loads_from, with_motor_side_loads
 
     signals, model, robot = record
     coupling = RavenConstants(arm=dataset.arm).nominal_coupling()
-    with motor_side_loads_throughout():
+    with inertial_loads_from("joints"):
+        assert runs.replay_transform() is None
+    with inertial_loads_from("motors"):
         assert runs.replay_transform() is with_motor_side_loads
         inside = runs.replayed_signals(dataset)
     assert runs.replay_transform() is None
@@ -536,38 +539,44 @@ def test_the_motors_inertial_loads_reach_every_record_the_study_helpers_read_and
     difference = model.replay(inside, robot).joints - model.replay(signals, robot).joints
     assert np.max(np.abs(difference)) > 1e-7
     with pytest.raises(RuntimeError, match="inside"):
-        with motor_side_loads_throughout():
+        with inertial_loads_from("motors"):
             raise RuntimeError("inside")
     assert runs.replay_transform() is None
     assert np.array_equal(runs.replayed_signals(dataset).acceleration, signals.acceleration)
 
 
-def test_the_motor_loads_study_runs_the_command_within_the_block_and_marks_its_report(monkeypatch, tmp_path):
-    import json
-
+def test_the_command_replays_the_analysis_the_oracle_and_the_floor_with_the_inertial_loads_asked_for(
+        monkeypatch, tmp_path):
     import studies.common.discrepancy_runs as runs
     import studies.discrepancy as command
-    from studies import discrepancy_motor_loads as study
-    from studies.discrepancy_floor import with_motor_side_loads
+    from studies.common.discrepancy_runs import inertial_loads_from, with_motor_side_loads
+
+    class StopAfterTheOracle(Exception):
+        pass
 
     seen = {}
 
-    def run_command(argv):
-        seen["argv"] = argv
-        seen["motor_side"] = runs.replay_transform() is with_motor_side_loads
-        folder = tmp_path / "out"
-        folder.mkdir()
-        (folder / "report.json").write_text(json.dumps({"shrink": 0.5}))
-        (folder / "report.md").write_text("# Model discrepancy\n\nBlind analysis.\n")
-        return 0
+    def analyse(path, folder, **options):
+        seen["analysed"] = options["inertial_loads"]
+        with inertial_loads_from(options["inertial_loads"]):
+            seen["analysis replays"] = runs.replay_transform()
+        return (None,) * 5
 
-    monkeypatch.setattr(command, "main", run_command)
-    out = tmp_path / "out"
-    assert study.main(["--hidden-effect", "hysteresis", "--seed", "7", "--duration", "90",
-                       "--backfit-patience", "2", "--out", str(out)]) == 0
-    assert seen == {"argv": ["--hidden-effect", "hysteresis", "--seed", "7", "--duration", "90.0",
-                             "--size-factor", "1.0", "--out", str(out), "--no-progress", "--backfit-patience", "2"],
-                    "motor_side": True}
-    assert runs.replay_transform() is None
-    assert json.loads((out / "report.json").read_text()) == {"shrink": 0.5, "motor_side_loads": True}
-    assert (out / "report.md").read_text() == f"# Model discrepancy\n\n{study.MARK}\n\nBlind analysis.\n"
+    def add_generator_knowledge(*arguments):
+        seen["oracle and floor replay"] = runs.replay_transform()
+        raise StopAfterTheOracle
+
+    monkeypatch.setattr(command, "generate_measured", lambda *arguments, **options: (None, None))
+    monkeypatch.setattr(command, "write_measured", lambda dataset, folder: folder / "measured.parquet")
+    monkeypatch.setattr(command, "analyse", analyse)
+    monkeypatch.setattr(command, "add_generator_knowledge", add_generator_knowledge)
+    for extra, loads, transform in (([], "joints", None),
+                                    (["--inertial-loads", "motors"], "motors", with_motor_side_loads)):
+        seen.clear()
+        with pytest.raises(StopAfterTheOracle):
+            command.main(["--hidden-effect", "drift", "--duration", "60", *extra, "--no-progress",
+                          "--out", str(tmp_path / loads)])
+        assert seen == {"analysed": loads, "analysis replays": transform, "oracle and floor replay": transform}
+        assert runs.replay_transform() is None
+    with pytest.raises(ValueError, match="from one of joints, motors, not 'links'"):
+        inertial_loads_from("links")

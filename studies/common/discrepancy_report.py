@@ -245,7 +245,7 @@ def scored_gaps(result: DiscrepancyResult, plant=None) -> tuple[np.ndarray, np.n
 
 def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
                     starting_structure=STARTING_STRUCTURE, analysis: str = "blind", plant=None,
-                    plant_refit=None) -> dict:
+                    plant_refit=None, inertial_loads: str | None = None) -> dict:
     """``report.json``: what the analysis found, its starting point and library, the iterations.
 
     ``gap_before``, ``gap_after`` and ``shrink`` are scored by ``scored_by`` (:func:`scored_gaps`);
@@ -253,7 +253,8 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
     none was asked for, as on dVRK data and in an ablation). ``plant_refit`` is the named effects
     refitted with the plant replay (:class:`~studies.common.plant_scoring.PlantRefit`; None where
     ``--plant-refit`` was not asked for): beside the headline figures, which stay the workflow's
-    models'."""
+    models'. ``inertial_loads`` is where the RAVEN-II replay took the links' inertial loads from
+    (:data:`~studies.common.discrepancy_runs.INERTIAL_LOADS`; None for other robots' data)."""
     gap_before, gap_after, shrink, scored_by = scored_gaps(result, plant)
     return {
         "analysis": analysis,
@@ -265,6 +266,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "gap_after": [float(v) for v in gap_after],
         "shrink": shrink,
         "scored_by": scored_by,
+        "inertial_loads": inertial_loads,
         "quasi_static": {"gap_before": [float(v) for v in result.gap_before],
                          "gap_after": [float(v) for v in result.gap_after], "shrink": float(result.shrink)},
         "plant_replay": None if plant is None else plant.document(),
@@ -402,13 +404,15 @@ def _drag_section(result: DiscrepancyResult, signals, split) -> list[str]:
 
 def write_report(result: DiscrepancyResult, signals, split, source: dict, out: Path, runtime_s: float,
                  starting_structure=STARTING_STRUCTURE, analysis: str = "blind", plant=None,
-                 plant_refit=None) -> list[Path]:
+                 plant_refit=None, inertial_loads: str | None = None) -> list[Path]:
     """Write ``report.json``, ``report.md`` and the plots of one workflow run in the folder ``out``;
     ``plant`` is the plant replay's score of it and ``plant_refit`` its named effects refitted with
-    the plant, each if one was asked for (:func:`report_document`)."""
+    the plant, each if one was asked for, and ``inertial_loads`` where a RAVEN-II replay took the
+    links' inertial loads from (:func:`report_document`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    document = report_document(result, source, runtime_s, starting_structure, analysis, plant, plant_refit)
+    document = report_document(result, source, runtime_s, starting_structure, analysis, plant, plant_refit,
+                               inertial_loads)
     note = short_record_note(signals)
     document["record_s"] = float(signals.time[-1] - signals.time[0])
     document["short_record"] = note
@@ -437,6 +441,9 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         "",
         f"{kind}. Starting structure: {start}. Candidates screened: {', '.join(result.library) or 'none'}.",
         "",
+        *([] if inertial_loads != "motors" else [
+            "The replay took the links' inertial loads from the motors' acceleration through the arm's nominal "
+            "coupling (`--inertial-loads motors`), not from the measured joints.", ""]),
         *([] if note is None else [f"**Short record:** {note}.", ""]),
         *([] if drift_note is None else [f"**Record too short for drift:** {drift_note}.", ""]),
         f"- named effects (in order): {', '.join(result.named_effects) or 'none'}",

@@ -307,6 +307,42 @@ def replay_transform() -> Callable[[MeasuredSignals], MeasuredSignals] | None:
     return _REPLAY_TRANSFORM.get()
 
 
+INERTIAL_LOADS = ("joints", "motors")
+"""Where the replay takes the links' inertial loads from (``--inertial-loads``): ``joints``, the
+workflow's default, from a causal second derivative of the measured joints
+(:class:`MeasuredSignals`); ``motors``, from the motors' acceleration through the arm's nominal
+coupling (:func:`with_motor_side_loads`). Both come from what a robot logs; the identification reads
+the dataset alike either way, and the plant replay takes no acceleration."""
+
+
+def motor_side_acceleration(signals: MeasuredSignals, coupling: np.ndarray) -> np.ndarray:
+    """(N, 3) the cable ends' acceleration ``A u''`` (``coupling`` A, (3, 3); ``u`` the motor
+    coordinates; rad/s^2 and m/s^2), causal like the replay's own estimate: the links' acceleration
+    up to that of the cables' stretch, from the motor encoders, whose errors are not the ground
+    truth's."""
+    return signals.drive_acceleration @ np.asarray(coupling, dtype=float).T
+
+
+def with_motor_side_loads(signals: MeasuredSignals) -> MeasuredSignals:
+    """``signals`` whose replay takes the links' inertial loads from :func:`motor_side_acceleration`
+    through the arm's nominal coupling (a round number of the model, nothing of a generator)."""
+    from simulation.model.constants import RavenConstants
+
+    coupling = RavenConstants(arm=signals.arm).nominal_coupling()
+    return signals.with_derivatives(acceleration=motor_side_acceleration(signals, coupling))
+
+
+def inertial_loads_from(source: str):
+    """A block within which the helpers replay RAVEN-II records with the links' inertial loads from
+    ``source`` (one of :data:`INERTIAL_LOADS`): ``motors`` is :func:`replaying_with`
+    :func:`with_motor_side_loads`; ``joints``, the default, changes nothing."""
+    from contextlib import nullcontext
+
+    if source not in INERTIAL_LOADS:
+        raise ValueError(f"the inertial loads come from one of {', '.join(INERTIAL_LOADS)}, not {source!r}")
+    return replaying_with(with_motor_side_loads) if source == "motors" else nullcontext()
+
+
 def replayed_signals(dataset) -> MeasuredSignals:
     """The signals the workflow replays for a RAVEN-II ``dataset``: the record's own, transformed
     within a :func:`replaying_with` block."""

@@ -245,6 +245,9 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
         "# Hidden vs named effects (blind analysis of generated files)", "",
         f"Seeds {list(seeds)}, {duration:.0f} s of random motion per run, hidden effects {sizes}; starting "
         f"structure {', '.join(STARTING_STRUCTURE)}; library {', '.join(LIBRARY)}.", "",
+        *([] if not any(r.get("inertial_loads") == "motors" for r in runs) else [
+            "**Inertial loads from the motors:** every run's replay took the links' inertial loads from the motors' "
+            "acceleration through the arm's nominal coupling (`--inertial-loads motors`).", ""]),
         *([] if duration >= SHORT_RECORD_S else [
             f"**Short records:** under {SHORT_RECORD_S:.0f} s the starting structure, identified on each record's "
             "first half, may itself leave a gap that a candidate then takes.", ""]),
@@ -294,10 +297,20 @@ def summarise_sweep(runs: list[dict], duration: float, out: Path, size_factor: f
     write_text(out / "confusion.md", text)
     document = {"effects": list(effects), "seeds": list(seeds), "duration_s": duration, "size_factor": size_factor,
                 "columns": columns, "starting_structure": list(STARTING_STRUCTURE), "library": list(LIBRARY),
+                "inertial_loads": runs[0].get("inertial_loads", "joints") if runs else "joints",
                 "matrix": matrix, "runs": runs, **(extra or {})}
     write_json(out / "confusion.json", document)
     print(text)
     return document
+
+
+def inertial_loads_of(document: dict) -> str:
+    """Where the replay of a ``--hidden-effect`` run's ``report.json`` took the links' inertial
+    loads from (:data:`~studies.common.discrepancy_runs.INERTIAL_LOADS`): its ``inertial_loads``, or
+    for a report written before the option, ``motors`` where the study that preceded it
+    (``studies/discrepancy_motor_loads.py``, since removed) marked it (``motor_side_loads``) and
+    ``joints`` otherwise."""
+    return document.get("inertial_loads") or ("motors" if document.get("motor_side_loads") else "joints")
 
 
 def run_of_report(document: dict, file) -> dict:
@@ -322,6 +335,7 @@ def run_of_report(document: dict, file) -> dict:
         plant = document["plant_replay"]
         quasi = document["quasi_static"]
         run = {"hidden": hidden[0] if hidden else "none", "seed": int(document["seed"]),
+               "inertial_loads": inertial_loads_of(document),
                "named_first": _first_named(named, document["unexplained"]),
                "named": named, "equivalent": {k: list(v) for k, v in document["equivalent"].items()},
                "rivals": {k: dict(v) for k, v in document["rivals"].items()},
@@ -376,11 +390,12 @@ def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
     as one command per effect and seed.
     The parts must share the record length, the effect sizes, how a named hysteresis's lag was
     scored by the plant (fitted, or the candidate's constant: a run without ``plant_lag_fitted``
-    was swept before the lag was fitted), and this version's starting structure and library, and no
+    was swept before the lag was fitted), where the replay took the links' inertial loads from (a
+    sweep's runs: from the joints), and this version's starting structure and library, and no
     hidden effect may appear twice with the same seed; anything else raises :class:`UsageError`
     naming the file and what differs.
     """
-    runs, seen, files, lengths, factors, lags = [], {}, [], set(), set(), set()
+    runs, seen, files, lengths, factors, lags, loads = [], {}, [], set(), set(), set(), set()
     for path in map(Path, paths):
         file, document = _read_part(path)
         if isinstance(document, dict) and "named_effects" in document and "runs" not in document:
@@ -404,6 +419,10 @@ def read_sweeps(paths) -> tuple[list[dict], float, float, list[str]]:
             if len(lags) > 1:
                 raise UsageError(f"{file} differs from the sweeps before it in how the plant scored a named "
                                  "hysteresis's lag (fitted in some runs, the candidate's constant in others)")
+            loads.add(run.get("inertial_loads", "joints"))
+            if len(loads) > 1:
+                raise UsageError(f"{file} differs from the sweeps before it in where the replay took the links' "
+                                 "inertial loads from (the joints in some runs, the motors in others)")
             key = (run["hidden"], run["seed"])
             if key in seen:
                 raise UsageError(f"{run['hidden']} with seed {run['seed']} is in both {seen[key]} and {file}")
