@@ -5,6 +5,7 @@
     python studies/discrepancy.py --hidden-effect none
     python studies/discrepancy.py --hidden-effect hysteresis --plant-refit   # named effects refitted with the plant
     python studies/discrepancy.py --hidden-effect hysteresis --fixed-plant-lag  # the scoring's lag fixed at 0.1 s
+    python studies/discrepancy.py --measured LOG.parquet --inertial-loads motors  # links' loads from the motors
     python studies/discrepancy.py --ablate coupling                 # the model lacks a term the data have
     python studies/discrepancy.py --measured ../shared/data/dvrk_hwang2020
     python studies/discrepancy.py --sweep --seeds 5 --duration 240  # hidden vs named, with the oracle
@@ -23,7 +24,12 @@ of re-identifying the starting structure around a candidate instead of thirty (`
 ``backfit_capped`` names the fits the cap cut short; with ``--hidden-effect`` the oracle gets the
 same cap). ``--max-effects N`` stops the search once it has named N effects instead of four, without
 the last iteration that checks for more (``report.json``'s ``search_capped``): on data known to hold
-at most N effects it names and fits the same at less cost. On the dVRK folder format the start is
+at most N effects it names and fits the same at less cost. ``--inertial-loads motors`` has the
+replay take the links' inertial loads from the motors' acceleration through the arm's nominal
+coupling instead of from a causal second derivative of the measured joints (``joints``, the
+default); with ``--hidden-effect`` the oracle and the floors are replayed alike, and
+``report.json``'s ``inertial_loads`` says which. The identification reads the record alike either
+way, and the plant replay takes no acceleration. On the dVRK folder format the start is
 the dVRK's own nominal model (measured joints = reported joints plus offsets; wrist joints 4-6 by
 default) with the generic library.
 
