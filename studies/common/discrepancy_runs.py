@@ -290,9 +290,10 @@ def replaying_with(transform: Callable[[MeasuredSignals], MeasuredSignals]) -> I
     ``transform(signals)`` instead of the record's own :class:`MeasuredSignals`, e.g. with other
     derivatives (:meth:`MeasuredSignals.with_derivatives`).
 
-    For diagnostic studies only: the command never enters such a block. The identification reads
-    the dataset as always. Blocks nest; the outer transform is back when an inner block ends,
-    whether it ends normally or by an error."""
+    The command enters one with ``--inertial-loads motors`` (:func:`inertial_loads_from`); the
+    diagnostic studies with the transforms they compare. The identification reads the dataset as
+    always. Blocks nest; the outer transform is back when an inner block ends, whether it ends
+    normally or by an error."""
     if not callable(transform):
         raise TypeError(f"the replay's transform must be callable, not {type(transform).__name__}")
     token = _REPLAY_TRANSFORM.set(transform)
