@@ -190,45 +190,41 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     (:func:`~studies.common.discrepancy_runs.analyse_measured`); the report's source counts the rows
     it left out for holding impossible values.
     """
-    with inertial_loads_from(inertial_loads):
-        return _analyse(path, out, runtime_s, shown_path, arm, progress, max_rate, backfit_rounds, max_effects,
-                        plant_refit, backfit_patience, fit_plant_lag, inertial_loads)
-
-
-def _analyse(path, out, runtime_s, shown_path, arm, progress, max_rate, backfit_rounds, max_effects, plant_refit,
-             backfit_patience, fit_plant_lag, inertial_loads):
     import time
 
-    clock = time.perf_counter()
-    say("identifying the starting model and screening the library...")
-    if arm == "left":
-        result, signals, split = analyse_measured(path, progress=progress, max_rate=max_rate,
-                                                  backfit_rounds=backfit_rounds, max_effects=max_effects,
-                                                  backfit_patience=backfit_patience)
-    else:
-        result, signals, split = run_on_raven_dataset(read_measured(path, arm, max_rate), progress=progress,
-                                                      settings=analysis_settings(backfit_rounds, max_effects,
-                                                                                 backfit_patience))
-    source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
-              "description": f"RAVEN-II data {Path(shown_path or path).name}"}
-    if max_rate is not None:
-        source["max_rate_hz"] = float(max_rate)
-        source["description"] += f", thinned to at most {max_rate:g} Hz"
-    dropped_rows = read_flagged(path, arm).n_invalid
-    if dropped_rows:
-        source["rows_dropped_invalid"] = int(dropped_rows)
-        source["description"] += f", {dropped_rows} row{'s' if dropped_rows != 1 else ''} with impossible values left out"
-    if result.named_effects:
-        say("scoring the starting and final models with the plant replay...")
-    plant = score_with_plant(result, signals, split, fit_lag=fit_plant_lag)
-    refit = None
-    if plant_refit:
-        if plant.applies and any(name in PLANT_REFIT_EFFECTS for name in result.named_effects):
-            say("refitting the named effects with the plant replay...")
-        refit = refit_with_plant(result, signals, split, plant)
-    write_report(result, signals, split, source, out, time.perf_counter() - clock if runtime_s is None else runtime_s,
-                 plant=plant, plant_refit=refit, inertial_loads=inertial_loads)
-    return result, signals, split, plant, refit
+    with inertial_loads_from(inertial_loads):
+        clock = time.perf_counter()
+        say("identifying the starting model and screening the library...")
+        if arm == "left":
+            result, signals, split = analyse_measured(path, progress=progress, max_rate=max_rate,
+                                                      backfit_rounds=backfit_rounds, max_effects=max_effects,
+                                                      backfit_patience=backfit_patience)
+        else:
+            result, signals, split = run_on_raven_dataset(read_measured(path, arm, max_rate), progress=progress,
+                                                          settings=analysis_settings(backfit_rounds, max_effects,
+                                                                                     backfit_patience))
+        source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
+                  "description": f"RAVEN-II data {Path(shown_path or path).name}"}
+        if max_rate is not None:
+            source["max_rate_hz"] = float(max_rate)
+            source["description"] += f", thinned to at most {max_rate:g} Hz"
+        dropped_rows = read_flagged(path, arm).n_invalid
+        if dropped_rows:
+            source["rows_dropped_invalid"] = int(dropped_rows)
+            source["description"] += (f", {dropped_rows} row{'s' if dropped_rows != 1 else ''} with impossible "
+                                      "values left out")
+        if result.named_effects:
+            say("scoring the starting and final models with the plant replay...")
+        plant = score_with_plant(result, signals, split, fit_lag=fit_plant_lag)
+        refit = None
+        if plant_refit:
+            if plant.applies and any(name in PLANT_REFIT_EFFECTS for name in result.named_effects):
+                say("refitting the named effects with the plant replay...")
+            refit = refit_with_plant(result, signals, split, plant)
+        runtime = time.perf_counter() - clock if runtime_s is None else runtime_s
+        write_report(result, signals, split, source, out, runtime, plant=plant, plant_refit=refit,
+                     inertial_loads=inertial_loads)
+        return result, signals, split, plant, refit
 
 
 OPTION_DEFAULTS = {"seed": 0, "seeds": 3, "duration": DEFAULT_RECORD_S, "size_factor": 1.0,

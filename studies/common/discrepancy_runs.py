@@ -14,7 +14,7 @@ whatever the data. Only a study that generated the data then adds what it knows
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from contextvars import ContextVar
 from pathlib import Path
 
@@ -337,8 +337,6 @@ def inertial_loads_from(source: str):
     """A block within which the helpers replay RAVEN-II records with the links' inertial loads from
     ``source`` (one of :data:`INERTIAL_LOADS`): ``motors`` is :func:`replaying_with`
     :func:`with_motor_side_loads`; ``joints``, the default, changes nothing."""
-    from contextlib import nullcontext
-
     if source not in INERTIAL_LOADS:
         raise ValueError(f"the inertial loads come from one of {', '.join(INERTIAL_LOADS)}, not {source!r}")
     return replaying_with(with_motor_side_loads) if source == "motors" else nullcontext()
