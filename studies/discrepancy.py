@@ -366,9 +366,8 @@ def main(argv=None) -> int:
                                                            backfit_patience=args.backfit_patience,
                                                            fit_plant_lag=not args.fixed_plant_lag,
                                                            inertial_loads=args.inertial_loads)
-            with inertial_loads_from(args.inertial_loads):
-                add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path,
-                                        result, args.size_factor, args.log_rate, plant, signals, split)
+            add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path,
+                                    result, args.size_factor, args.log_rate, plant, signals, split)
         elif args.ablate is not None:
             result, signals, split, generator = run_ablation(args.ablate, seed=args.seed, duration=args.duration,
                                                              folder=study.folder)

@@ -67,7 +67,7 @@ from __future__ import annotations
 
 import json
 import sys
-from contextlib import ExitStack, contextmanager
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 
@@ -171,7 +171,7 @@ def _values(values) -> str:
 def main(argv: list[str] | None = None) -> int:
     from simulation.discrepancy import candidates
     from studies.common.discrepancy_report import add_generator_knowledge
-    from studies.common.discrepancy_runs import generate_measured, inertial_loads_from, write_measured
+    from studies.common.discrepancy_runs import generate_measured, write_measured
     from studies.discrepancy import analyse
 
     parser = script_parser(STUDY, __doc__)
@@ -209,10 +209,8 @@ def main(argv: list[str] | None = None) -> int:
         del dataset
         scorer_lag = (None if args.fit_scorer_lag or args.fit_replay_lag
                       else args.response_time if args.scorer_lag is None else args.scorer_lag)
-        with ExitStack() as changes:
-            changes.enter_context(hysteresis_candidate(args.pin_shape, scorer_lag, fit_lag=args.fit_replay_lag))
-            loads = "motors" if args.motor_side_loads else "joints"
-            changes.enter_context(inertial_loads_from(loads))
+        loads = "motors" if args.motor_side_loads else "joints"
+        with hysteresis_candidate(args.pin_shape, scorer_lag, fit_lag=args.fit_replay_lag):
             result, signals, split, plant, _ = analyse(path, study.folder, shown_path=study.final(path),
                                                        backfit_patience=args.backfit_patience,
                                                        fit_plant_lag=args.fit_scorer_lag, inertial_loads=loads)

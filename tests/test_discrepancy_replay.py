@@ -405,7 +405,7 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
     import studies.discrepancy as command
     from simulation.discrepancy import candidates
     from studies import discrepancy_hysteresis_shape as study
-    from studies.common.discrepancy_runs import with_motor_side_loads
+    from studies.common.discrepancy_runs import inertial_loads_from, with_motor_side_loads
 
     class ReachedTheAnalysis(Exception):
         pass
@@ -417,8 +417,11 @@ def test_the_shape_study_gives_the_generator_and_the_scorer_their_lags(monkeypat
         return None, params
 
     def analyse(path, folder, shown_path=None, backfit_patience=None, fit_plant_lag=False, inertial_loads="joints"):
+        # the command's analysis replays within the block its inertial loads name
+        with inertial_loads_from(inertial_loads):
+            replays_motor_loads = runs.replay_transform() is with_motor_side_loads
         seen["analysed"] = (path.name, backfit_patience, candidates.HYSTERESIS_RESPONSE_TIME, fit_plant_lag,
-                            runs.replay_transform() is with_motor_side_loads, inertial_loads)
+                            replays_motor_loads, inertial_loads)
         raise ReachedTheAnalysis
 
     monkeypatch.setattr(runs, "generate_measured", generate)
@@ -547,11 +550,15 @@ def test_the_motors_inertial_loads_reach_every_record_the_study_helpers_read_and
 
 def test_the_command_replays_the_analysis_the_oracle_and_the_floor_with_the_inertial_loads_asked_for(
         monkeypatch, tmp_path):
+    import json
+    from types import SimpleNamespace
+
+    import studies.common.discrepancy_report as report
     import studies.common.discrepancy_runs as runs
     import studies.discrepancy as command
     from studies.common.discrepancy_runs import inertial_loads_from, with_motor_side_loads
 
-    class StopAfterTheOracle(Exception):
+    class StopAfterTheFloor(Exception):
         pass
 
     seen = {}
@@ -560,23 +567,31 @@ def test_the_command_replays_the_analysis_the_oracle_and_the_floor_with_the_iner
         seen["analysed"] = options["inertial_loads"]
         with inertial_loads_from(options["inertial_loads"]):
             seen["analysis replays"] = runs.replay_transform()
-        return (None,) * 5
+        # what the analysis's report says of its replay is all the oracle and the floor learn of it
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "report.json").write_text(json.dumps({"inertial_loads": options["inertial_loads"]}))
+        return (SimpleNamespace(backfit_rounds=None, backfit_patience=0),) + (None,) * 4
 
-    def add_generator_knowledge(*arguments):
-        seen["oracle and floor replay"] = runs.replay_transform()
-        raise StopAfterTheOracle
+    def oracle(*arguments, **options):
+        seen["oracle replays"] = runs.replay_transform()
+
+    def floor_record(*arguments):
+        seen["floor replays"] = runs.replay_transform()
+        raise StopAfterTheFloor
 
     monkeypatch.setattr(command, "generate_measured", lambda *arguments, **options: (None, None))
     monkeypatch.setattr(command, "write_measured", lambda dataset, folder: folder / "measured.parquet")
     monkeypatch.setattr(command, "analyse", analyse)
-    monkeypatch.setattr(command, "add_generator_knowledge", add_generator_knowledge)
+    monkeypatch.setattr(report, "oracle", oracle)
+    monkeypatch.setattr(report, "floor_record", floor_record)
     for extra, loads, transform in (([], "joints", None),
                                     (["--inertial-loads", "motors"], "motors", with_motor_side_loads)):
         seen.clear()
-        with pytest.raises(StopAfterTheOracle):
+        with pytest.raises(StopAfterTheFloor):
             command.main(["--hidden-effect", "drift", "--duration", "60", *extra, "--no-progress",
                           "--out", str(tmp_path / loads)])
-        assert seen == {"analysed": loads, "analysis replays": transform, "oracle and floor replay": transform}
+        assert seen == {"analysed": loads, "analysis replays": transform, "oracle replays": transform,
+                        "floor replays": transform}
         assert runs.replay_transform() is None
     with pytest.raises(ValueError, match="from one of joints, motors, not 'links'"):
         inertial_loads_from("links")

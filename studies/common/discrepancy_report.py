@@ -31,6 +31,7 @@ from studies.common.discrepancy_runs import (
     floor_bound,
     floor_record,
     held_out_gap,
+    inertial_loads_from,
     largest_share,
     log_rate_options,
     oracle,
@@ -581,7 +582,8 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
                             plant=None, signals=None, split=None) -> dict:
     """After the blind analysis: add the hidden effect, the true parameters, the oracle (with the
     analysis's backfit cap) and the floor (:func:`~studies.common.discrepancy_runs.floor_gap`: the
-    gap the starting model leaves on the same seed's record with nothing hidden) to the report.
+    gap the starting model leaves on the same seed's record with nothing hidden) to the report. Both
+    are replayed with the inertial loads the report's ``inertial_loads`` names, as the analysis was.
 
     The oracle is scored as the analysis was: where ``plant`` (the analysis's plant score, on
     ``signals`` and ``split``) applies, by the plant replay with its Coulomb forces refitted
@@ -595,25 +597,27 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
 
     report_path = Path(out) / "report.json"
     document = json.loads(report_path.read_text())
-    fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds, backfit_patience=result.backfit_patience or 0)
     plant_scored = plant is not None and plant.applies
-    if not hidden:
-        floor = result.gap_before
-        plant_floor = plant.gap_before if plant_scored else None
-    else:
-        # the same seed's record with nothing hidden, and its starting model
-        record = floor_record(seed, duration, log_rate_options(log_rate))
-        none_signals, none_split, none_robot, none_model = record
-        floor = held_out_gap(none_model, none_signals, none_split, none_robot)
-        plant_floor = plant_floor_gap(record) if plant_scored else None
-        del record, none_signals
+    # the oracle and the floor are replayed as the report says the analysis was
+    with inertial_loads_from(document.get("inertial_loads") or "joints"):
+        fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds, backfit_patience=result.backfit_patience or 0)
+        if not hidden:
+            floor = result.gap_before
+            plant_floor = plant.gap_before if plant_scored else None
+        else:
+            # the same seed's record with nothing hidden, and its starting model
+            record = floor_record(seed, duration, log_rate_options(log_rate))
+            none_signals, none_split, none_robot, none_model = record
+            floor = held_out_gap(none_model, none_signals, none_split, none_robot)
+            plant_floor = plant_floor_gap(record) if plant_scored else None
+            del record, none_signals
+        scored = None if plant is None else score_oracle_with_plant(fit, plant, signals, split)
     bound = floor_bound(floor, result.gap_before, result.units)
     plant_bound = None if plant_floor is None else floor_bound(plant_floor, plant.gap_before, result.units)
     to_report = report_scale(result.units)
     before = pooled_rmse(result.residual_before.joints, result.units)
     quasi_after = float(np.sqrt(np.mean(np.square(fit.gap_after * to_report))))
     quasi_shrink = float(1.0 - quasi_after / before) if before > 0 else 0.0
-    scored = None if plant is None else score_oracle_with_plant(fit, plant, signals, split)
     oracle_gap, oracle_shrink = (np.asarray(fit.gap_after), quasi_shrink) if scored is None else scored
     oracle_shrink = float(oracle_shrink)
     _, gap_after, shrink, scored_by = scored_gaps(result, plant)
