@@ -168,7 +168,7 @@ def joint_numbers(text: str) -> tuple[int, ...]:
 def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = None, arm: str = "left",
             progress: bool = False, max_rate: float | None = None, backfit_rounds: int | None = None,
             max_effects: int | None = None, plant_refit: bool = False, backfit_patience: int | None = None,
-            fit_plant_lag: bool = True, inertial_loads: str = "joints"):
+            fit_plant_lag: bool = True, inertial_loads: str = "joints", named_backfit_patience: int | None = None):
     """The blind ``--measured`` analysis of RAVEN-II data at ``path``, reported in ``out``.
 
     The analysis's last step scores its starting and final models with the plant replay where that
@@ -183,8 +183,9 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
     ``shown_path`` is the input's name in the report (where the file will be once published);
     ``arm`` is for bags and CSV files (a Parquet dataset file records its own); ``max_rate`` (Hz)
     thins a faster log first; ``backfit_rounds`` caps the backfit's rounds, ``max_effects`` the
-    effects named and ``backfit_patience`` the backfit's rounds in a row that may fail to lower the
-    residual, instead of the workflow's defaults; ``inertial_loads`` (one of
+    effects named and ``backfit_patience`` (``named_backfit_patience``, once a candidate is named)
+    the backfit's rounds in a row that may fail to lower the residual, instead of the workflow's
+    defaults; ``inertial_loads`` (one of
     :data:`~studies.common.discrepancy_runs.INERTIAL_LOADS`) is where the replay takes the links'
     inertial loads from. The analysis reads ``path`` and nothing else
     (:func:`~studies.common.discrepancy_runs.analyse_measured`); the report's source counts the rows
@@ -198,11 +199,13 @@ def analyse(path: Path, out: Path, runtime_s=None, shown_path: Path | None = Non
         if arm == "left":
             result, signals, split = analyse_measured(path, progress=progress, max_rate=max_rate,
                                                       backfit_rounds=backfit_rounds, max_effects=max_effects,
-                                                      backfit_patience=backfit_patience)
+                                                      backfit_patience=backfit_patience,
+                                                      named_backfit_patience=named_backfit_patience)
         else:
             result, signals, split = run_on_raven_dataset(read_measured(path, arm, max_rate), progress=progress,
                                                           settings=analysis_settings(backfit_rounds, max_effects,
-                                                                                     backfit_patience))
+                                                                                     backfit_patience,
+                                                                                     named_backfit_patience))
         source = {"kind": "raven", "path": str(shown_path or path), "sha256": file_digest(path),
                   "description": f"RAVEN-II data {Path(shown_path or path).name}"}
         if max_rate is not None:
@@ -252,6 +255,7 @@ def options_that_apply(args) -> dict[str, tuple[bool, str]]:
         "fit_plant_lag": plant_scored,
         "fixed_plant_lag": plant_scored,
         "backfit_patience": analysed_blind,
+        "named_backfit_patience": analysed_blind,
         "inertial_loads": analysed_blind,
         "seed": (generated, "generated data (--hidden-effect, --ablate, --sweep): measured data carry no seed"),
         "seeds": (args.sweep, "--sweep only"),
@@ -301,6 +305,12 @@ def main(argv=None) -> int:
                              "rounds in a row that do not lower the fit part's residual, from where each ended, "
                              f"keeping the best (the workflow's default: {WorkflowSettings().backfit_patience}, the "
                              "first such round ends it; with --hidden-effect the oracle gets the same)")
+    parser.add_argument("--named-backfit-patience", type=non_negative_int, default=None, metavar="N",
+                        help="--measured RAVEN-II data and --hidden-effect only: once a candidate is named, let its "
+                             "backfit go on past up to N rounds in a row that do not lower the fit part's residual "
+                             "(the workflow's default: "
+                             f"{WorkflowSettings().named_backfit_patience}; 0: it ends where the candidate was "
+                             "chosen; with --hidden-effect the oracle gets the same)")
     parser.add_argument("--max-effects", type=positive_int, default=None, metavar="N",
                         help="--measured RAVEN-II data and --hidden-effect only: name at most N effects instead of "
                              f"{WorkflowSettings().max_iterations}, and stop there without checking for more "
@@ -364,6 +374,7 @@ def main(argv=None) -> int:
                                                            progress=progress, backfit_rounds=args.backfit_rounds,
                                                            max_effects=args.max_effects, plant_refit=args.plant_refit,
                                                            backfit_patience=args.backfit_patience,
+                                                           named_backfit_patience=args.named_backfit_patience,
                                                            fit_plant_lag=not args.fixed_plant_lag,
                                                            inertial_loads=args.inertial_loads)
             add_generator_knowledge(study.folder, args.hidden_effect, args.seed, args.duration, generator, path,
@@ -406,6 +417,7 @@ def main(argv=None) -> int:
                                                                max_effects=args.max_effects,
                                                                plant_refit=args.plant_refit,
                                                                backfit_patience=args.backfit_patience,
+                                                               named_backfit_patience=args.named_backfit_patience,
                                                                fit_plant_lag=not args.fixed_plant_lag,
                                                                inertial_loads=args.inertial_loads)
             except NotIdentifiableError as error:

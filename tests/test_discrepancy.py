@@ -293,9 +293,10 @@ def test_generation_and_analysis_meet_only_through_the_file(cli_runs, tmp_path):
 
     # the analysis takes a path and nothing else (besides whether to draw a progress bar, the
     # highest log rate to analyse at, the backfit's round cap, the most effects to name and the
-    # backfit's patience, all about the analysis, none about what was generated)
+    # backfit's patience before and after a candidate is named, all about the analysis, none about
+    # what was generated)
     parameters = inspect.signature(analyse_measured).parameters
-    options = ("progress", "max_rate", "backfit_rounds", "max_effects", "backfit_patience")
+    options = ("progress", "max_rate", "backfit_rounds", "max_effects", "backfit_patience", "named_backfit_patience")
     assert list(parameters) == ["path", *options]
     assert all(parameters[name].kind is inspect.Parameter.KEYWORD_ONLY for name in options)
     # the record with nothing hidden, the cheapest of the command-line runs to analyse again
@@ -470,13 +471,17 @@ def test_a_backfit_cut_by_its_last_allowed_round_is_reported_and_one_that_stoppe
 
 
 @pytest.mark.xdist_group("discrepancy-backfit")
-@pytest.mark.parametrize("patience, backfit_calls, kept_call, kept_rounds", [(0, 2, 1, 1), (2, 6, 3, 2)])
+@pytest.mark.parametrize("patience, named_patience, backfit_calls, scored_call, scored_rounds, final_call, refined", [
+    (0, 0, 2, 1, 1, 1, None), (2, 0, 6, 3, 2, 3, None), (2, 2, 6, 3, 2, 3, None), (0, 2, 6, 1, 1, 3, 1)])
 def test_patience_lets_the_backfit_go_on_past_rounds_that_do_not_lower_the_residual_and_keeps_the_best(
-        short_hysteresis, monkeypatch, patience, backfit_calls, kept_call, kept_rounds):
+        short_hysteresis, monkeypatch, patience, named_patience, backfit_calls, scored_call, scored_rounds,
+        final_call, refined):
     # the rounds' residuals are scripted: 9, then 9.5 (worse), 8 (best), then 8.5, 8.6, 8.7, 8.8 (all
     # worse than 8). Patience 0 stops at the first worse round. Patience 2 goes on from the 9.5
     # round, keeps the 8 round, counts the worse rounds again from there and stops at the third in
-    # a row (without the new count it would stop at 8.6, the third worse round in all)
+    # a row (without the new count it would stop at 8.6, the third worse round in all). A named
+    # effect's patience takes the stopped backfit of the named candidate on along the same rounds:
+    # the candidate is scored (and chosen) as its own patience left it, and named as refined
     import simulation.discrepancy.workflow as workflow
     from simulation.discrepancy import run_workflow
     from studies.common.discrepancy_runs import raven_library
@@ -494,20 +499,58 @@ def test_patience_lets_the_backfit_go_on_past_rounds_that_do_not_lower_the_resid
     real = workflow.fit_candidate
     monkeypatch.setattr(workflow, "fit_candidate", fit)
     candidates = raven_library(signals, ("hysteresis",))
-    settings = WorkflowSettings(max_iterations=1, accept_all=True, backfit_rounds=7, backfit_patience=patience)
-    (score,) = run_workflow(model, signals, split, settings, candidates=candidates, base=base).iterations[0].scores
+    settings = WorkflowSettings(max_iterations=1, accept_all=True, backfit_rounds=7, backfit_patience=patience,
+                                named_backfit_patience=named_patience)
+    result = run_workflow(model, signals, split, settings, candidates=candidates, base=base)
+    (iteration,) = result.iterations
+    (score,) = iteration.scores
     assert len(calls) == 1 + backfit_calls
-    assert (score.backfit_rounds, score.backfit_capped) == (kept_rounds, False)
-    assert score.values == {k: np.asarray(v).tolist() for k, v in candidates[0].unpack(calls[kept_call][1]).items()}
+    assert (score.backfit_rounds, score.backfit_capped) == (scored_rounds, False)
+
+    def values(call):
+        return {k: np.asarray(v).tolist() for k, v in candidates[0].unpack(calls[call][1]).items()}
+
+    assert score.values == values(scored_call)
+    assert result.fitted_parameters["hysteresis"] == values(final_call)
+    assert (iteration.refined_rounds, iteration.refined_capped) == (refined, False)
+    assert result.backfit_capped == () and result.named_backfit_patience == named_patience
     # each round starts from the round before it, kept or not
     for before, after in zip(calls[1:], calls[2:]):
         np.testing.assert_array_equal(after[0], before[1])
 
 
-def test_backfit_patience_is_a_count_of_rounds():
+@pytest.mark.xdist_group("discrepancy-backfit")
+def test_a_named_effects_patience_takes_its_backfit_on_to_the_cap_and_says_so(short_hysteresis, monkeypatch):
+    # scripted: 9, then 9.5 (worse: patience 0 stops), then 8, 7, 6 kept up to the cap of five rounds
+    import simulation.discrepancy.workflow as workflow
+    from simulation.discrepancy import run_workflow
+    from studies.common.discrepancy_runs import raven_library
+
+    signals, split, base, model = short_hysteresis
+    scripted = iter([1.0, 9e-6, 9.5e-6, 8e-6, 7e-6, 6e-6])
+    real = workflow.fit_candidate
+
+    def fit(candidate, start, *args, initial=None, **options):
+        if candidate.name != "hysteresis":
+            return real(candidate, start, *args, initial=initial, **options)
+        return np.asarray(initial, dtype=float) + 1.0, start, next(scripted)
+
+    monkeypatch.setattr(workflow, "fit_candidate", fit)
+    settings = WorkflowSettings(max_iterations=1, accept_all=True, backfit_rounds=5)
+    result = run_workflow(model, signals, split, settings, candidates=raven_library(signals, ("hysteresis",)),
+                          base=base)
+    (iteration,) = result.iterations
+    assert (iteration.scores[0].backfit_rounds, iteration.scores[0].backfit_capped) == (1, False)
+    # three rounds kept after the one that did not lower the residual, the last allowed among them
+    assert (iteration.refined_rounds, iteration.refined_capped) == (3, True)
+    assert result.backfit_capped == ("hysteresis",)
+
+
+@pytest.mark.parametrize("name", ["backfit_patience", "named_backfit_patience"])
+def test_backfit_patience_is_a_count_of_rounds(name):
     for bad in (-1, 1.5, True):
-        with pytest.raises(ValueError, match="backfit_patience must be an integer of at least 0"):
-            WorkflowSettings(backfit_patience=bad)
+        with pytest.raises(ValueError, match=f"^{name} must be an integer of at least 0"):
+            WorkflowSettings(**{name: bad})
 
 
 def test_the_report_of_a_run_has_the_documented_keys(tmp_path):

@@ -570,7 +570,7 @@ def test_the_command_replays_the_analysis_the_oracle_and_the_floor_with_the_iner
         # what the analysis's report says of its replay is all the oracle and the floor learn of it
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "report.json").write_text(json.dumps({"inertial_loads": options["inertial_loads"]}))
-        return (SimpleNamespace(backfit_rounds=None, backfit_patience=0),) + (None,) * 4
+        return (SimpleNamespace(backfit_rounds=None, backfit_patience=0, named_backfit_patience=None),) + (None,) * 4
 
     def oracle(*arguments, **options):
         seen["oracle replays"] = runs.replay_transform()

@@ -106,7 +106,7 @@ def _stand_in_result():
                            gap_after=np.array([1.5e-4, 1e-4, 3e-6]), shrink=0.2, library=LIBRARY, units=RAVEN_UNITS,
                            joint_names=RAVEN_JOINTS, torque_gap_before=None, torque_gap_after=None, equivalent={},
                            rivals={}, signature=(), residual_structure=None, backfit_rounds=6, backfit_patience=0,
-                           backfit_capped=(),
+                           named_backfit_patience=2, backfit_capped=(),
                            max_effects=4, search_capped=False,
                            controller=None, fitted_parameters={}, parameter_units={}, parameter_bounds={},
                            iterations=(), model_before=None)

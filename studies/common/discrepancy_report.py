@@ -280,6 +280,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         "residual_structure": structure_shares(result),
         "backfit_rounds": result.backfit_rounds,
         "backfit_patience": result.backfit_patience,
+        "named_backfit_patience": result.named_backfit_patience,
         "backfit_capped": list(result.backfit_capped),
         "max_effects": result.max_effects,
         "search_capped": bool(result.search_capped),
@@ -298,6 +299,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
             {"validation_gap": it.gap_before, "fit_gap": it.fit_gap_before, "bic": it.bic_before, "named": it.named,
              "validation_torque_gap": it.torque_gap_before, "fit_torque_gap": it.fit_torque_gap_before,
              "equivalent": list(it.equivalent), "rivals": dict(it.rivals),
+             "refined_rounds": it.refined_rounds, "refined_capped": it.refined_capped,
              "candidates": [{"name": s.name, "fitted": s.fitted, "validation_gap": s.validation_gap, "fit_gap": s.fit_gap,
                              "validation_torque_gap": s.torque_gap, "fit_torque_gap": s.fit_torque_gap,
                              "bic": s.bic, "screened_chi_square": s.screened_chi_square, "parameters": s.values,
@@ -452,6 +454,10 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
           + ", ".join(f"{name} (BIC higher by {d:.2f})" for name, d in rivals.items())
           + ": the data support those about as well" for named, rivals in result.rivals.items()],
         f"- unexplained residual left: {'yes' if result.unexplained else 'no'}",
+        *[f"- the backfit of {it.named} stopped at a round that did not lower the fit part's residual and, once it "
+          f"was named, went on from there (up to {result.named_backfit_patience} such rounds in a row): "
+          f"{it.refined_rounds} more round{'s' if it.refined_rounds != 1 else ''} kept"
+          for it in result.iterations if it.refined_rounds is not None],
         *[f"- the backfit of {name} was still lowering the fit part's residual at its last allowed round "
           f"(round {result.backfit_rounds}; `--backfit-rounds` allows more): its fit, and the shrink, may stop short"
           for name in result.backfit_capped],
@@ -600,7 +606,8 @@ def add_generator_knowledge(out: Path, hidden, seed: int, duration: float, gener
     plant_scored = plant is not None and plant.applies
     # the oracle and the floor are replayed as the report says the analysis was
     with inertial_loads_from(document.get("inertial_loads") or "joints"):
-        fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds, backfit_patience=result.backfit_patience or 0)
+        fit = oracle(path, hidden, backfit_rounds=result.backfit_rounds, backfit_patience=result.backfit_patience or 0,
+                     named_backfit_patience=result.named_backfit_patience)
         if not hidden:
             floor = result.gap_before
             plant_floor = plant.gap_before if plant_scored else None

@@ -416,29 +416,35 @@ def thinned(dataset, max_rate: float | None):
 
 
 def analysis_settings(backfit_rounds: int | None = None, max_effects: int | None = None,
-                      backfit_patience: int | None = None) -> WorkflowSettings:
+                      backfit_patience: int | None = None,
+                      named_backfit_patience: int | None = None) -> WorkflowSettings:
     """The default :class:`WorkflowSettings`, with at most ``backfit_rounds`` backfit rounds, at
-    most ``max_effects`` named effects (``max_iterations``) and a backfit that goes on past
-    ``backfit_patience`` rounds in a row that do not lower the residual, when given."""
-    changes = {"backfit_rounds": backfit_rounds, "max_iterations": max_effects, "backfit_patience": backfit_patience}
+    most ``max_effects`` named effects (``max_iterations``), a backfit that goes on past
+    ``backfit_patience`` rounds in a row that do not lower the residual, and a named effect's past
+    ``named_backfit_patience``, when given."""
+    changes = {"backfit_rounds": backfit_rounds, "max_iterations": max_effects, "backfit_patience": backfit_patience,
+               "named_backfit_patience": named_backfit_patience}
     return WorkflowSettings(**{k: v for k, v in changes.items() if v is not None})
 
 
 def analyse_measured(path, *, progress: bool = False, max_rate: float | None = None,
                      backfit_rounds: int | None = None, max_effects: int | None = None,
-                     backfit_patience: int | None = None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
+                     backfit_patience: int | None = None,
+                     named_backfit_patience: int | None = None) -> tuple[DiscrepancyResult, MeasuredSignals, Split]:
     """The blind analysis of RAVEN-II data: all it knows is the file (or folder) at ``path``.
 
     Always the same :data:`STARTING_STRUCTURE`, identified on the first half of the record, the
     same :data:`LIBRARY` of candidates and the default :class:`WorkflowSettings`: no seed, no
     generator, no name of what the data may hide. ``max_rate`` (Hz) thins a faster log first
     (:func:`thinned`); None analyses every row. ``backfit_rounds`` caps the backfit's rounds,
-    ``max_effects`` the effects named and ``backfit_patience`` lets the backfit go on past rounds
-    that do not lower the residual, instead of the defaults (:func:`analysis_settings`; a search
+    ``max_effects`` the effects named and ``backfit_patience`` (``named_backfit_patience``, once a
+    candidate is named) lets the backfit go on past rounds that do not lower the residual, instead
+    of the defaults (:func:`analysis_settings`; a search
     that names ``max_effects`` stops without checking for more, ``search_capped``).
     """
     return run_on_raven_dataset(read_measured(path, max_rate=max_rate), progress=progress,
-                                settings=analysis_settings(backfit_rounds, max_effects, backfit_patience))
+                                settings=analysis_settings(backfit_rounds, max_effects, backfit_patience,
+                                                           named_backfit_patience))
 
 
 SHORT_RECORD_S = 60.0
@@ -669,15 +675,17 @@ def floor_bound(floor, gap_before, units) -> float:
 
 
 def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rounds,
-           backfit_acceleration: bool = False, backfit_patience: int = 0) -> DiscrepancyResult:
+           backfit_acceleration: bool = False, backfit_patience: int = 0,
+           named_backfit_patience: int | None = None) -> DiscrepancyResult:
     """The generator's true structure fitted to the same fit part of the same file.
 
     The starting structure is identified as in the blind analysis, then every hidden effect is
     added with its parameters fitted (never given) by the workflow's own steps, whatever it scores.
     Its held-out gap is what a model of the right structure closes by those steps, with at most
     ``backfit_rounds`` backfit rounds, accelerated with ``backfit_acceleration``, going on past
-    ``backfit_patience`` rounds in a row that do not lower the residual (the workflow's defaults
-    unless given).
+    ``backfit_patience`` rounds in a row that do not lower the residual, and each hidden effect's
+    past ``named_backfit_patience`` once it is added (the workflow's defaults unless given; None:
+    the default).
     """
     hidden = check_hidden(hidden)
     dataset = read_measured(path)
@@ -687,7 +695,9 @@ def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rou
     model = base.identify(STARTING_STRUCTURE, None)
     settings = WorkflowSettings(accept_all=True, max_iterations=len(hidden), screen_top=max(len(hidden), 1),
                                 backfit_rounds=backfit_rounds, backfit_acceleration=backfit_acceleration,
-                                backfit_patience=backfit_patience)
+                                backfit_patience=backfit_patience,
+                                **({} if named_backfit_patience is None else
+                                   {"named_backfit_patience": named_backfit_patience}))
     return run_workflow(model, signals, split, settings, candidates=raven_library(signals, hidden), base=base,
                         controller=controller_of(dataset))
 
