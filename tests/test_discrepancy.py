@@ -306,7 +306,7 @@ def test_generation_and_analysis_meet_only_through_the_file(cli_runs, tmp_path):
     shutil.copy(generated / "measured.parquet", copy)
     assert main(["--measured", str(copy), "--out", str(tmp_path / "again")]) == 0
     blind, first = report_of(tmp_path / "again"), report_of(generated)
-    volatile = {"created", "runtime_s", "source"}
+    volatile = {"created", "runtime_s", "source", "machine"}
     assert "hidden_effect" not in blind and "oracle_shrink" not in blind and "seed" not in blind
     for key in set(blind) - volatile:
         assert first[key] == blind[key], key

@@ -292,6 +292,24 @@ def test_tables_and_json_are_plain(tmp_path):
         agreement_line(True, "a", "b", "tuned")
 
 
+def test_the_machine_description_names_the_releases_and_the_processor_the_kernels_are_compiled_for():
+    import casadi
+    import llvmlite.binding
+    import scipy
+
+    from studies.common.reporting import RESULT_PACKAGES, machine_description, package_versions
+
+    machine = machine_description()
+    assert set(machine["packages"]) == set(RESULT_PACKAGES)
+    # the installed releases, as the packages themselves report them
+    assert machine["packages"]["numpy"] == np.__version__ and machine["packages"]["scipy"] == scipy.__version__
+    assert machine["packages"]["casadi"] == casadi.__version__
+    assert machine["compiled_for"] == llvmlite.binding.get_host_cpu_name()
+    assert package_versions(("numpy", "no-such-package-here")) == {"numpy": np.__version__,
+                                                                    "no-such-package-here": None}
+    json.dumps(machine)  # plain JSON
+
+
 def test_every_study_says_whether_its_finding_is_built_in():
     from studies.common.paper_numbers import FINDING_KIND, FINDINGS
 

@@ -39,7 +39,7 @@ from studies.common.discrepancy_runs import (
     structure_values,
     true_values,
 )
-from studies.common.reporting import markdown_table, now_iso, to_jsonable, write_json, write_text
+from studies.common.reporting import machine_description, markdown_table, now_iso, to_jsonable, write_json, write_text
 
 DVRK_STARTING_MODEL = "reported joints plus constant offsets (the dVRK's nominal model)"
 """What ``report.md`` calls the dVRK's starting model (it has no cable structure)."""
@@ -309,6 +309,7 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
         ],
         "source": source,
         "created": now_iso(),
+        "machine": machine_description(),
         "runtime_s": round(runtime_s, 1),
     }
 

@@ -62,13 +62,45 @@ def _processor_name() -> str:
     return platform.processor() or platform.machine()
 
 
+RESULT_PACKAGES = ("numpy", "scipy", "casadi", "numba", "llvmlite", "pin", "scikit-learn", "torch", "pysindy",
+                   "pandas", "pyarrow")
+"""The installed packages whose releases can move a result in its last digits (the requirements
+admit ranges, so two installations months apart may differ)."""
+
+
+def _host_cpu_name() -> str | None:
+    """The processor LLVM, and so numba, compiles the kernels for (its instructions decide their
+    rounding), None without llvmlite."""
+    try:
+        from llvmlite import binding
+    except ImportError:
+        return None
+    return binding.get_host_cpu_name()
+
+
+def package_versions(names=RESULT_PACKAGES) -> dict[str, str | None]:
+    """The installed release of each package of ``names``, None where it is not installed."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    found = {}
+    for name in names:
+        try:
+            found[name] = version(name)
+        except PackageNotFoundError:
+            found[name] = None
+    return found
+
+
 def machine_description() -> dict[str, Any]:
-    """Where the numbers were measured: processor, cores, OS, Python."""
+    """Where the numbers were measured: processor (and the one numba compiles for), cores, OS,
+    Python and the releases of :data:`RESULT_PACKAGES`."""
     return {
         "processor": _processor_name(),
+        "compiled_for": _host_cpu_name(),
         "cpu_count": os.cpu_count(),
         "platform": platform.platform(),
         "python": sys.version.split()[0],
+        "packages": package_versions(),
     }
 
 
