@@ -369,6 +369,11 @@ def values_at_bounds(values, lower, upper) -> list[str]:
                                                                                             reach)]
 
 
+def _values_of(candidate: Candidate, theta) -> dict[str, list]:
+    """``candidate``'s parameter blocks at ``theta`` as plain lists (SI), as results report them."""
+    return {k: np.asarray(v).tolist() for k, v in candidate.unpack(np.asarray(theta, dtype=float)).items()}
+
+
 def candidate_bounds(candidate: Candidate) -> dict[str, tuple[list[float], list[float]]]:
     """The search range of each of ``candidate``'s parameter blocks, one (lower, upper) pair of lists
     per block, a value per parameter (SI)."""
@@ -817,7 +822,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
             gap = _validation_gap(val, units)
             fit_gap = _validation_gap(fit, units)
             bic = val.chi_square(weights) + settings.bic_weight * candidate.n_parameters * np.log(n_validation)
-            values = {k: np.asarray(v).tolist() for k, v in candidate.unpack(np.asarray(theta, dtype=float)).items()}
+            values = _values_of(candidate, theta)
             scores.append(CandidateScore(candidate.name, chi, True, values, gap, bic, fit_gap,
                                          _torque_gap(val, weights), _torque_gap(fit, weights),
                                          *backfits.get(candidate.name, (0, False))))
@@ -858,8 +863,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                 refined = refine(candidate, weights)
                 if refined is not None:
                     refined_rounds, trial, theta = refined
-                    values = {k: np.asarray(v).tolist()
-                              for k, v in candidate.unpack(np.asarray(theta, dtype=float)).items()}
+                    values = _values_of(candidate, theta)
                 model = trial
                 if base is not None and candidate.name in base.fittable:
                     structure = structure + (candidate.name,)

@@ -676,7 +676,7 @@ def floor_bound(floor, gap_before, units) -> float:
 
 def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rounds,
            backfit_acceleration: bool = False, backfit_patience: int = 0,
-           named_backfit_patience: int | None = None) -> DiscrepancyResult:
+           named_backfit_patience: int = WorkflowSettings().named_backfit_patience) -> DiscrepancyResult:
     """The generator's true structure fitted to the same fit part of the same file.
 
     The starting structure is identified as in the blind analysis, then every hidden effect is
@@ -684,8 +684,7 @@ def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rou
     Its held-out gap is what a model of the right structure closes by those steps, with at most
     ``backfit_rounds`` backfit rounds, accelerated with ``backfit_acceleration``, going on past
     ``backfit_patience`` rounds in a row that do not lower the residual, and each hidden effect's
-    past ``named_backfit_patience`` once it is added (the workflow's defaults unless given; None:
-    the default).
+    past ``named_backfit_patience`` once it is added (the workflow's defaults unless given).
     """
     hidden = check_hidden(hidden)
     dataset = read_measured(path)
@@ -695,9 +694,7 @@ def oracle(path, hidden, *, backfit_rounds: int = WorkflowSettings().backfit_rou
     model = base.identify(STARTING_STRUCTURE, None)
     settings = WorkflowSettings(accept_all=True, max_iterations=len(hidden), screen_top=max(len(hidden), 1),
                                 backfit_rounds=backfit_rounds, backfit_acceleration=backfit_acceleration,
-                                backfit_patience=backfit_patience,
-                                **({} if named_backfit_patience is None else
-                                   {"named_backfit_patience": named_backfit_patience}))
+                                backfit_patience=backfit_patience, named_backfit_patience=named_backfit_patience)
     return run_workflow(model, signals, split, settings, candidates=raven_library(signals, hidden), base=base,
                         controller=controller_of(dataset))
 
