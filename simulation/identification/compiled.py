@@ -75,7 +75,9 @@ def _compiler() -> str | None:
 def _source_folder() -> str:
     """A folder of this process for the generated C sources and libraries, removed at exit (casadi
     writes them to the working directory otherwise, and removes them only when a function is
-    destroyed, which a cached function never is before the interpreter ends)."""
+    destroyed, which a cached function never is before the interpreter ends). Releases before
+    casadi 3.8 leave a copy of each source in the working directory all the same, hence the
+    project's requirement of 3.8."""
     folder = tempfile.mkdtemp(prefix="raven_identification_")
     atexit.register(shutil.rmtree, folder, ignore_errors=True)
     return folder
