@@ -31,6 +31,7 @@ from simulation.discrepancy import (
 )
 from simulation.discrepancy.replay import play_series
 from simulation.discrepancy.signals import pooled_rmse
+from simulation.discrepancy.workflow import CandidateScore, naming_shortfalls
 from studies.common.discrepancy_runs import (
     HIDDEN_CHOICES,
     LIBRARY,
@@ -259,6 +260,41 @@ def test_nothing_hidden_names_nothing(cli_runs):
     assert report["oracle_residual_structure"] == report["residual_structure"]
     text = (cli_runs("none") / "report.md").read_text()
     assert "repeatable structure of the residual the final model leaves" in text
+    # every candidate fitted was refused, and the report says which naming test each one failed
+    fitted = [c for it in report["iterations"] for c in it["candidates"] if c["fitted"]]
+    assert fitted and all(c["shortfalls"] for c in fitted)
+    assert all(c["shortfalls"] == [] for it in report["iterations"] for c in it["candidates"] if not c["fitted"])
+    assert "| verdict |" in text and "; ".join(fitted[0]["shortfalls"]) in text
+
+
+def _score(validation_gap, fit_gap, bic, torque_gap=1.0, fit_torque_gap=1.0):
+    return CandidateScore("candidate", 0.0, True, {}, validation_gap, bic, fit_gap, torque_gap, fit_torque_gap)
+
+
+def test_a_candidate_is_refused_for_each_naming_test_it_fails_and_by_how_much():
+    settings = WorkflowSettings()  # 10 % on both parts, 0.001 off the validation gap
+    current = dict(gap=0.00427, fit_gap=0.00406, bic=57751.0, torque_gap=1.0, fit_torque_gap=1.0)
+    # a fifth off both gaps but 0.00084 in all: the absolute floor alone refuses it
+    assert naming_shortfalls(_score(0.00343, 0.00355, 46568.0), **current, settings=settings) == (
+        "validation gap cut 0.00084 (< 0.001)", "torque gaps cut 0.0 % and 0.0 % (not both >= 10 %)")
+    assert naming_shortfalls(_score(0.00343, 0.00355, 46568.0), **current,
+                             settings=WorkflowSettings(min_improvement=0.0008)) == ()
+    # the fit part barely moves: refused on that part, however much the validation gap falls
+    reasons = naming_shortfalls(_score(0.0020, 0.00390, 40000.0), **current, settings=settings)
+    assert reasons[0] == "fit-part gap cut 3.9 % (< 10 %)" and len(reasons) == 2
+    # a fit that passes every gap test but does not lower the BIC
+    assert naming_shortfalls(_score(0.0020, 0.0020, 57751.0), **current, settings=settings) == (
+        "BIC not below the current model's",)
+    # an effect seen only in the torques: both torque gaps down a fifth, the joints' gap unchanged
+    assert naming_shortfalls(_score(0.00427, 0.00406, 50000.0, 0.8, 0.8), **current, settings=settings) == ()
+    # ... but not if it widens the joints' gap by the floor
+    reasons = naming_shortfalls(_score(0.00527, 0.00406, 50000.0, 0.8, 0.8), **current, settings=settings)
+    assert reasons[0] == "validation gap cut -23.4 % (< 10 %)"
+    # without torques (generic data) no torque sentence
+    reasons = naming_shortfalls(_score(0.00400, 0.00400, 50000.0, np.nan, np.nan), **{
+        **current, "torque_gap": np.nan, "fit_torque_gap": np.nan}, settings=settings)
+    assert reasons == ("validation gap cut 6.3 % (< 10 %)", "fit-part gap cut 1.5 % (< 10 %)",
+                       "validation gap cut 0.00027 (< 0.001)")
 
 
 def test_an_effect_missing_from_the_library_is_unexplained_with_a_signature(cli_runs):

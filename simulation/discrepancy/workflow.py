@@ -285,6 +285,46 @@ class Iteration:
     rivals: tuple[tuple[str, float], ...] = ()
     refined_rounds: int | None = None
     refined_capped: bool = False
+    shortfalls: dict = field(default_factory=dict)
+    """Each fitted candidate that did not explain enough to be named, with why
+    (:func:`naming_shortfalls`)."""
+
+
+def naming_shortfalls(score: CandidateScore, gap: float, fit_gap: float, bic: float, torque_gap: float,
+                      fit_torque_gap: float, settings: WorkflowSettings) -> tuple[str, ...]:
+    """Why a fitted candidate does not explain enough to be named: empty when it does.
+
+    ``gap``, ``fit_gap`` (pooled RMSE, deg and mm), ``bic``, ``torque_gap`` and ``fit_torque_gap``
+    are the current model's, which the candidate is measured against. A candidate explains enough
+    when it lowers the BIC and either cuts both joint gaps by ``min_shrink`` and the validation gap
+    by ``min_improvement``, or cuts both torque gaps by ``min_shrink`` without widening the
+    validation gap by ``min_improvement`` (:class:`WorkflowSettings`). The reasons are short
+    phrases for the report, in the order of those tests, each with the figure that failed.
+    """
+    keep = 1 - settings.min_shrink
+    cut = gap - score.validation_gap
+    joints = (score.validation_gap <= keep * gap and score.fit_gap <= keep * fit_gap
+              and cut >= settings.min_improvement)
+    torques = (score.torque_gap <= keep * torque_gap and score.fit_torque_gap <= keep * fit_torque_gap
+               and -cut < settings.min_improvement)
+    reasons = [] if score.bic < bic else ["BIC not below the current model's"]
+    if joints or torques:
+        return tuple(reasons)
+    percent = 100 * settings.min_shrink
+    for part, before, after in (("validation", gap, score.validation_gap), ("fit-part", fit_gap, score.fit_gap)):
+        if not after <= keep * before:
+            reasons.append(f"{part} gap cut {_percent_cut(before, after)} % (< {percent:g} %)")
+    if not cut >= settings.min_improvement:
+        reasons.append(f"validation gap cut {cut:.5f} (< {settings.min_improvement:g})")
+    if np.isfinite(torque_gap):
+        reasons.append(f"torque gaps cut {_percent_cut(torque_gap, score.torque_gap)} % and "
+                       f"{_percent_cut(fit_torque_gap, score.fit_torque_gap)} % (not both >= {percent:g} %)")
+    return tuple(reasons)
+
+
+def _percent_cut(before: float, after: float) -> str:
+    """``1 - after / before`` in percent to one decimal, without a sign on zero."""
+    return f"{round(100 * (1 - after / before), 1) + 0.0:.1f}"
 
 
 @dataclass(frozen=True)
@@ -832,15 +872,13 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
         accepted = None
         refined_rounds = None
         equivalent: tuple[str, ...] = ()
-        shrink = 1 - settings.min_shrink
 
-        def explains(bic, gap, fit_gap, score):
-            explains_joints = (gap <= shrink * current_gap and fit_gap <= shrink * current_fit_gap
-                               and current_gap - gap >= settings.min_improvement)
-            explains_torques = (score.torque_gap <= shrink * current_torque_gap
-                                and score.fit_torque_gap <= shrink * current_fit_torque_gap
-                                and gap - current_gap < settings.min_improvement)
-            return bic < current_bic and (explains_joints or explains_torques)
+        def shortfalls(score):
+            return naming_shortfalls(score, current_gap, current_fit_gap, current_bic, current_torque_gap,
+                                     current_fit_torque_gap, settings)
+
+        def explains(score):
+            return not shortfalls(score)
 
         # the lowest BIC among the candidates that explain enough (with two effects missing, the one
         # whose fit lowers the BIC most may not yet be the one that closes the gap)
@@ -852,7 +890,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
 
         for bic, gap, fit_gap, candidate, trial, values in ranked:
             score = score_of(candidate)
-            if settings.accept_all or explains(bic, gap, fit_gap, score):
+            if settings.accept_all or explains(score):
                 accepted = candidate.name
                 # candidates of the same form screen identically (e.g. two kinds of per-homing offset)
                 equivalent = tuple(s.name for s in scores if s.name != candidate.name
@@ -860,7 +898,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                                    <= 1e-9 * abs(score.screened_chi_square))
                 rivals = tuple((c.name, float(b - bic)) for b, g, fg, c, _, _ in ranked
                                if c is not candidate and c.name not in equivalent and b - bic <= settings.bic_tie
-                               and explains(b, g, fg, score_of(c)))
+                               and explains(score_of(c)))
                 refined = refine(candidate, weights)
                 if refined is not None:
                     refined_rounds, trial, theta = refined
@@ -882,7 +920,9 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                                     fit_torque_gap_before=current_fit_torque_gap, equivalent=equivalent,
                                     rivals=rivals, refined_rounds=refined_rounds,
                                     refined_capped=(refined_rounds is not None
-                                                    and backfit_states[accepted].ended == "capped")))
+                                                    and backfit_states[accepted].ended == "capped"),
+                                    shortfalls={s.name: shortfalls(s) for s in scores
+                                                if s.fitted and s.name != accepted and shortfalls(s)}))
         if accepted is None:
             break
 

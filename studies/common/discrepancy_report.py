@@ -303,7 +303,8 @@ def report_document(result: DiscrepancyResult, source: dict, runtime_s: float,
              "candidates": [{"name": s.name, "fitted": s.fitted, "validation_gap": s.validation_gap, "fit_gap": s.fit_gap,
                              "validation_torque_gap": s.torque_gap, "fit_torque_gap": s.fit_torque_gap,
                              "bic": s.bic, "screened_chi_square": s.screened_chi_square, "parameters": s.values,
-                             "backfit_rounds": s.backfit_rounds, "backfit_capped": s.backfit_capped}
+                             "backfit_rounds": s.backfit_rounds, "backfit_capped": s.backfit_capped,
+                             "shortfalls": list(it.shortfalls.get(s.name, ()))}
                             for s in it.scores]}
             for it in result.iterations
         ],
@@ -367,8 +368,23 @@ validation part's weighted squared residual (joints and motor torques, each weig
 model's misfit) plus k ln n for the candidate's k parameters; lower BIC is better; *torque gap*: RMS
 of the motor-torque residual on the validation part, each joint over the current model's typical
 misfit (1 = as large as the current model's; "-" without torques). The candidate named is the one
-of lowest BIC, below the current model's, that cuts both joint gaps by at least 10 % (or, for an
-effect seen only in the motor torques, the torque gap on both parts)."""
+of lowest BIC, below the current model's, that cuts both joint gaps by at least 10 % and the
+validation gap by at least 0.001 (or, for an effect seen only in the motor torques, the torque gap
+on both parts by 10 %); the defaults, the run's own in *verdict*, which says for each fitted
+candidate not named why it was not."""
+
+
+def _verdict(iteration, score) -> str:
+    """The last column of the candidates' table: named, or why a fitted candidate was not."""
+    if iteration.named == score.name:
+        return "named"
+    if score.name in iteration.shortfalls:
+        return "; ".join(iteration.shortfalls[score.name])
+    if score.fitted and iteration.named is not None:
+        if score.name in iteration.equivalent:
+            return f"fits exactly as {iteration.named} does (the same form)"
+        return f"explains enough; {iteration.named} has the lower BIC"
+    return ""
 
 
 def _structure_section(result: DiscrepancyResult) -> list[str]:
@@ -435,7 +451,7 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
                                it.torque_gap_before, it.bic_before, ""])
         for s in it.scores:
             iteration_rows.append([str(k + 1), s.name, "yes" if s.fitted else "screened only", s.fit_gap,
-                                   s.validation_gap, s.torque_gap, s.bic, "named" if it.named == s.name else ""])
+                                   s.validation_gap, s.torque_gap, s.bic, _verdict(it, s)])
     start = ", ".join(starting_structure) if starting_structure else DVRK_STARTING_MODEL
     kind = "Ablation (the model lacks a term the data have)" if analysis == "ablation" else "Blind analysis"
     parameter_table = parameter_rows(result.fitted_parameters, result.parameter_units, result.joint_names,
@@ -502,8 +518,8 @@ def write_report(result: DiscrepancyResult, signals, split, source: dict, out: P
         "",
         COLUMNS_EXPLAINED,
         "",
-        markdown_table(["iteration", "candidate", "fitted", "fit-part gap", "validation gap", "torque gap", "BIC", ""],
-                       iteration_rows, digits=4),
+        markdown_table(["iteration", "candidate", "fitted", "fit-part gap", "validation gap", "torque gap", "BIC",
+                        "verdict"], iteration_rows, digits=4),
         "",
         "## Where the starting model's residual is (fit and validation parts)",
         "",
