@@ -914,6 +914,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                     # free ratio errors), not in the candidate's
                     parameter_bounds[candidate.name] = candidate_bounds(candidate)
                 break
+        refused = {s.name: shortfalls(s) for s in scores if s.fitted and s.name != accepted}
         iterations.append(Iteration(gap_before=current_gap, scores=tuple(scores), named=accepted,
                                     fit_gap_before=current_fit_gap, bic_before=current_bic,
                                     torque_gap_before=current_torque_gap,
@@ -921,8 +922,7 @@ def run_workflow(model, signals: MeasuredSignals, split: Split, settings: Workfl
                                     rivals=rivals, refined_rounds=refined_rounds,
                                     refined_capped=(refined_rounds is not None
                                                     and backfit_states[accepted].ended == "capped"),
-                                    shortfalls={s.name: shortfalls(s) for s in scores
-                                                if s.fitted and s.name != accepted and shortfalls(s)}))
+                                    shortfalls={name: why for name, why in refused.items() if why}))
         if accepted is None:
             break
 
